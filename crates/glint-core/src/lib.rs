@@ -1,0 +1,21 @@
+//! glint-core: the vocabulary every other crate speaks.
+//!
+//! Math (glam re-exported), rays, bounding boxes, floating-point error bounds, colour,
+//! orthonormal frames, sampling warps and hash-derived random streams. It sits at the bottom
+//! of the crate graph: no I/O, no threads, no unsafe, no dependency on any other glint crate.
+#![forbid(unsafe_code)]
+
+pub mod bounds;
+pub mod colour;
+pub mod float;
+pub mod frame;
+pub mod random;
+pub mod ray;
+pub mod sampling;
+
+pub use bounds::Bounds3;
+pub use colour::Rgb;
+pub use frame::Frame;
+pub use glam;
+pub use glam::{Affine3A, Mat3, Mat4, Quat, UVec2, Vec2, Vec3, Vec3A, Vec4};
+pub use ray::Ray;

@@ -1,0 +1,27 @@
+//! glint-scene: the validated, immutable scene every mode renders.
+//!
+//! Camera, shapes (sphere, plane, triangle mesh), materials, textures, lights and the sky.
+//! Built by glint-formats from files (or by code), checked once by [`Scene::validate`], then
+//! read-only: integrators never see an invalid value, so hot paths need no `Result`.
+//! Depends on glint-core and glint-image only; knows nothing of acceleration structures.
+#![forbid(unsafe_code)]
+
+pub mod camera;
+pub mod error;
+pub mod light;
+pub mod material;
+pub mod mesh;
+pub mod object;
+pub mod scene;
+pub mod sky;
+pub mod texture;
+
+pub use camera::{Camera, CameraRays, Fov};
+pub use error::SceneError;
+pub use light::{Attenuation, Light};
+pub use material::Material;
+pub use mesh::Mesh;
+pub use object::{Object, Shape};
+pub use scene::{RenderDefaults, Scene};
+pub use sky::Sky;
+pub use texture::{Texture, TextureImage};

@@ -1,0 +1,359 @@
+//! The scene: everything a render needs, validated once.
+
+use crate::{Camera, Light, Material, Mesh, Object, SceneError, Shape, Sky, Texture};
+use glint_core::{Bounds3, Rgb, Vec3};
+use std::sync::Arc;
+
+/// Largest image side accepted (a 65536² RGBA f32 film would already be 64 GiB).
+pub const MAX_IMAGE_SIDE: u32 = 32_768;
+
+/// Render settings a scene file may give; the CLI overrides them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderDefaults {
+    pub width: u32,
+    pub height: u32,
+    /// N for N×N stratified supersampling (1 = one ray through each pixel centre).
+    pub samples_per_side: u32,
+    /// Maximum ray depth (primary ray = depth 0).
+    pub max_depth: u32,
+    /// A reflection/refraction branch whose accumulated weight falls below this is not traced.
+    pub min_contribution: f32,
+}
+
+impl Default for RenderDefaults {
+    fn default() -> Self {
+        Self { width: 1280, height: 720, samples_per_side: 1, max_depth: 8, min_contribution: 1e-3 }
+    }
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    pub camera: Camera,
+    pub render: RenderDefaults,
+    pub sky: Sky,
+    /// I_a: ambient light colour, multiplied by each material's K_a.
+    pub ambient: Rgb,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub meshes: Vec<Arc<Mesh>>,
+    pub objects: Vec<Object>,
+    pub lights: Vec<Light>,
+}
+
+fn finite3(v: Vec3) -> bool {
+    v.is_finite()
+}
+
+impl Scene {
+    /// World-space bounds of every bounded object (planes excluded).
+    pub fn bounds(&self) -> Bounds3 {
+        let mut b = Bounds3::EMPTY;
+        for o in &self.objects {
+            let local = match o.shape {
+                Shape::Sphere { centre, radius } => {
+                    Bounds3::new(centre - Vec3::splat(radius), centre + Vec3::splat(radius))
+                }
+                Shape::Plane { .. } => continue,
+                Shape::Mesh(i) => match self.meshes.get(i) {
+                    Some(m) => m.bounds(),
+                    None => continue,
+                },
+            };
+            b = b.union(local.transformed(&o.world_from_object));
+        }
+        b
+    }
+
+    /// Check every value an integrator relies on. After `Ok`, rendering cannot meet a NaN
+    /// coordinate, a dangling index or an impossible size.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        let r = &self.render;
+        if r.width == 0 || r.height == 0 || r.width > MAX_IMAGE_SIDE || r.height > MAX_IMAGE_SIDE {
+            return Err(SceneError::ImageSize { width: r.width, height: r.height, max: MAX_IMAGE_SIDE });
+        }
+        if r.samples_per_side == 0 || r.samples_per_side > 64 {
+            return Err(SceneError::invalid(
+                "render",
+                format!("samples per side {} is outside 1..=64", r.samples_per_side),
+            ));
+        }
+        if !(r.min_contribution.is_finite() && r.min_contribution >= 0.0) {
+            return Err(SceneError::invalid("render", "min_contribution must be a finite number >= 0"));
+        }
+        let c = &self.camera;
+        if !finite3(c.position) || !finite3(c.forward) || !finite3(c.up) {
+            return Err(SceneError::invalid("camera", "position, direction and up must be finite numbers"));
+        }
+        if c.forward.length_squared() == 0.0 {
+            return Err(SceneError::invalid("camera", "the view direction has zero length (look_at equals position?)"));
+        }
+        if c.forward.normalize().cross(c.up).length_squared() < 1e-12 {
+            return Err(SceneError::invalid("camera", "up is parallel to the view direction"));
+        }
+        let fov = match c.fov {
+            crate::Fov::Vertical(f) | crate::Fov::Horizontal(f) => f,
+        };
+        if !(fov > 0.0 && fov < 180.0) {
+            return Err(SceneError::invalid("camera", format!("field of view {fov}° must be in (0, 180)")));
+        }
+        if !finite3(self.ambient) || self.ambient.min_element() < 0.0 {
+            return Err(SceneError::invalid("ambient", "must be a finite, non-negative colour"));
+        }
+        for (i, t) in self.textures.iter().enumerate() {
+            if let Texture::Checker { size, .. } = t
+                && !(size.is_finite() && *size > 0.0)
+            {
+                return Err(SceneError::invalid(format!("texture #{i}"), "checker size must be > 0"));
+            }
+        }
+        for m in &self.materials {
+            self.validate_material(m)?;
+        }
+        for (i, l) in self.lights.iter().enumerate() {
+            validate_light(i, l)?;
+        }
+        for (i, mesh) in self.meshes.iter().enumerate() {
+            self.validate_mesh(i, mesh)?;
+        }
+        if self.objects.is_empty() {
+            return Err(SceneError::Empty);
+        }
+        for o in &self.objects {
+            self.validate_object(o)?;
+        }
+        Ok(())
+    }
+
+    fn validate_material(&self, m: &Material) -> Result<(), SceneError> {
+        let what = || format!("material '{}'", m.name);
+        let scalars = [
+            ("ambient", m.ambient),
+            ("diffuse", m.diffuse),
+            ("specular", m.specular),
+            ("shininess", m.shininess),
+            ("reflectivity", m.reflectivity),
+            ("transparency", m.transparency),
+        ];
+        for (name, v) in scalars {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(SceneError::invalid(what(), format!("{name} = {v} must be a finite number >= 0")));
+            }
+        }
+        if m.transparency > 1.0 || m.reflectivity > 1.0 {
+            return Err(SceneError::invalid(what(), "reflectivity and transparency must be at most 1"));
+        }
+        if !(m.ior.is_finite() && m.ior >= 1.0 && m.ior <= 10.0) {
+            return Err(SceneError::invalid(what(), format!("ior = {} must be in [1, 10]", m.ior)));
+        }
+        if !m.colour.is_finite()
+            || m.colour.min_element() < 0.0
+            || !m.emission.is_finite()
+            || m.emission.min_element() < 0.0
+        {
+            return Err(SceneError::invalid(what(), "colour and emission must be finite and non-negative"));
+        }
+        if let Some(t) = m.texture
+            && t >= self.textures.len()
+        {
+            return Err(SceneError::BadReference {
+                what: what(),
+                kind: "texture",
+                index: t,
+                count: self.textures.len(),
+            });
+        }
+        Ok(())
+    }
+
+    fn validate_mesh(&self, i: usize, mesh: &Mesh) -> Result<(), SceneError> {
+        let what = || format!("mesh '{}' (#{i})", mesh.name);
+        if mesh.triangles.is_empty() {
+            return Err(SceneError::invalid(what(), "has no triangles"));
+        }
+        if let Some(p) = mesh.positions.iter().position(|p| !p.is_finite()) {
+            return Err(SceneError::invalid(what(), format!("vertex {p} has a NaN or infinite coordinate")));
+        }
+        let n = mesh.positions.len();
+        if let Some((t, _)) = mesh.triangles.iter().enumerate().find(|(_, t)| t.iter().any(|&v| v as usize >= n)) {
+            return Err(SceneError::invalid(what(), format!("triangle {t} refers to a vertex beyond the {n} it has")));
+        }
+        if let Some(normals) = &mesh.normals {
+            if normals.len() != n {
+                return Err(SceneError::invalid(what(), format!("{} normals for {n} vertices", normals.len())));
+            }
+            if normals.iter().any(|v| !v.is_finite()) {
+                return Err(SceneError::invalid(what(), "a vertex normal is NaN or infinite"));
+            }
+        }
+        if let Some(uvs) = &mesh.uvs {
+            if uvs.len() != n {
+                return Err(SceneError::invalid(what(), format!("{} texture coordinates for {n} vertices", uvs.len())));
+            }
+            if uvs.iter().any(|v| !v.is_finite()) {
+                return Err(SceneError::invalid(what(), "a texture coordinate is NaN or infinite"));
+            }
+        }
+        if let Some(tm) = &mesh.triangle_materials {
+            if tm.len() != mesh.triangles.len() {
+                return Err(SceneError::invalid(what(), "per-triangle materials do not match the triangle count"));
+            }
+            if let Some(&bad) = tm.iter().find(|&&m| m as usize >= self.materials.len()) {
+                return Err(SceneError::BadReference {
+                    what: what(),
+                    kind: "material",
+                    index: bad as usize,
+                    count: self.materials.len(),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    fn validate_object(&self, o: &Object) -> Result<(), SceneError> {
+        let what = || format!("object '{}'", o.name);
+        if o.material >= self.materials.len() {
+            return Err(SceneError::BadReference {
+                what: what(),
+                kind: "material",
+                index: o.material,
+                count: self.materials.len(),
+            });
+        }
+        let m = o.world_from_object;
+        if !(m.matrix3.x_axis.is_finite()
+            && m.matrix3.y_axis.is_finite()
+            && m.matrix3.z_axis.is_finite()
+            && m.translation.is_finite())
+        {
+            return Err(SceneError::invalid(what(), "transform has a NaN or infinite entry"));
+        }
+        if m.matrix3.determinant().abs() < 1e-12 {
+            return Err(SceneError::invalid(what(), "transform is singular (a scale of 0?)"));
+        }
+        match o.shape {
+            Shape::Sphere { centre, radius } => {
+                if !centre.is_finite() || !(radius.is_finite() && radius > 0.0) {
+                    return Err(SceneError::invalid(
+                        what(),
+                        format!("sphere needs a finite centre and radius > 0 (radius = {radius})"),
+                    ));
+                }
+            }
+            Shape::Plane { normal, offset } => {
+                if !normal.is_finite() || !offset.is_finite() || (normal.length() - 1.0).abs() > 1e-3 {
+                    return Err(SceneError::invalid(what(), "plane needs a finite unit normal and offset"));
+                }
+            }
+            Shape::Mesh(i) => {
+                if i >= self.meshes.len() {
+                    return Err(SceneError::BadReference {
+                        what: what(),
+                        kind: "mesh",
+                        index: i,
+                        count: self.meshes.len(),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+fn validate_light(i: usize, l: &Light) -> Result<(), SceneError> {
+    let what = || format!("light #{i}");
+    let (colour, intensity) = match *l {
+        Light::Point { position, colour, intensity, .. } => {
+            if !position.is_finite() {
+                return Err(SceneError::invalid(what(), "position must be finite"));
+            }
+            (colour, intensity)
+        }
+        Light::Directional { direction, colour, intensity } => {
+            if !direction.is_finite() || (direction.length() - 1.0).abs() > 1e-3 {
+                return Err(SceneError::invalid(what(), "direction must be a finite unit vector"));
+            }
+            (colour, intensity)
+        }
+        Light::Spot { position, direction, inner_deg, outer_deg, colour, intensity, .. } => {
+            if !position.is_finite() || !direction.is_finite() || (direction.length() - 1.0).abs() > 1e-3 {
+                return Err(SceneError::invalid(
+                    what(),
+                    "position and direction must be finite (direction unit length)",
+                ));
+            }
+            if !(inner_deg >= 0.0 && inner_deg <= outer_deg && outer_deg > 0.0 && outer_deg <= 180.0) {
+                return Err(SceneError::invalid(
+                    what(),
+                    format!("cone angles need 0 <= inner ({inner_deg}) <= outer ({outer_deg}) <= 180"),
+                ));
+            }
+            (colour, intensity)
+        }
+    };
+    if !colour.is_finite() || colour.min_element() < 0.0 || !(intensity.is_finite() && intensity >= 0.0) {
+        return Err(SceneError::invalid(what(), "colour and intensity must be finite and non-negative"));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glint_core::Affine3A;
+
+    fn one_sphere() -> Scene {
+        Scene {
+            materials: vec![Material::default()],
+            objects: vec![Object {
+                name: "s".into(),
+                shape: Shape::Sphere { centre: Vec3::ZERO, radius: 1.0 },
+                material: 0,
+                world_from_object: Affine3A::IDENTITY,
+            }],
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn a_sphere_scene_is_valid() {
+        assert_eq!(one_sphere().validate(), Ok(()));
+    }
+
+    #[test]
+    fn empty_scene_is_rejected() {
+        let s = Scene { materials: vec![Material::default()], ..Default::default() };
+        assert_eq!(s.validate(), Err(SceneError::Empty));
+    }
+
+    #[test]
+    fn nan_radius_and_bad_material_are_rejected() {
+        let mut s = one_sphere();
+        s.objects[0].shape = Shape::Sphere { centre: Vec3::ZERO, radius: f32::NAN };
+        assert!(matches!(s.validate(), Err(SceneError::InvalidValue { .. })));
+        let mut s = one_sphere();
+        s.objects[0].material = 3;
+        assert!(matches!(s.validate(), Err(SceneError::BadReference { .. })));
+    }
+
+    #[test]
+    fn impossible_image_size_is_rejected() {
+        let mut s = one_sphere();
+        s.render.width = 0;
+        assert!(matches!(s.validate(), Err(SceneError::ImageSize { .. })));
+        s.render.width = 1_000_000;
+        assert!(matches!(s.validate(), Err(SceneError::ImageSize { .. })));
+    }
+
+    #[test]
+    fn mesh_with_out_of_range_index_is_rejected() {
+        let mut s = one_sphere();
+        s.meshes.push(Arc::new(Mesh {
+            name: "m".into(),
+            positions: vec![Vec3::ZERO; 2],
+            triangles: vec![[0, 1, 2]],
+            ..Default::default()
+        }));
+        let err = s.validate().expect_err("index 2 of 2 vertices");
+        assert!(err.to_string().contains("triangle 0"), "{err}");
+    }
+}
