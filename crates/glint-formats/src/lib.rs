@@ -1,0 +1,107 @@
+//! glint-formats: files → [`Scene`]. All parsing in glint lives here.
+//!
+//! - the TOML scene format (docs/scene-format.md): serde with unknown keys rejected, every
+//!   error at its file:line:column, names and paths resolved, the result validated;
+//! - model files: OBJ/MTL (own parser, fast, errors with line numbers), PLY (own parser:
+//!   ASCII and binary, general element/property reader shared with point clouds), glTF 2.0
+//!   (.gltf/.glb through the `gltf` crate);
+//! - [`scene_for_model`]: a camera, lights and a sky to look at a model without a scene file.
+//!
+//! Sits between glint-scene (what it produces) and the binaries; it never renders, and nothing
+//! but the binaries and tests depends on it. A file is fully understood or rejected: unknown
+//! keys, NaN, absurd counts and dangling references are errors ([`FormatError`]), and what was
+//! recovered from (zero-area triangles, a missing .mtl) is reported in [`Loaded::warnings`].
+#![forbid(unsafe_code)]
+
+pub mod error;
+mod gltf_file;
+mod model;
+mod obj;
+pub mod ply;
+mod scene_toml;
+mod texture_file;
+
+pub use error::FormatError;
+pub use model::{Model, load_model, scene_for_model};
+
+use glint_scene::{Material, Mesh, Scene, Texture};
+use model::ModelFormat;
+use std::path::Path;
+
+/// The default scene, built into the binary (self-contained: no external files).
+pub const DEMO_SCENE: &str = include_str!("../../../scenes/demo.toml");
+
+/// A scene read from files, and what was recovered from on the way.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    pub scene: Scene,
+    /// Problems glint worked around, each starting with the file it is about, e.g.
+    /// "bunny.ply: dropped 3 zero-area triangles".
+    pub warnings: Vec<String>,
+}
+
+/// Reads a scene (`.toml`) or a model to look at (`.obj`, `.ply`, `.gltf`, `.glb`; see
+/// [`scene_for_model`]), by extension, case-insensitive.
+pub fn load(path: &Path) -> Result<Loaded, FormatError> {
+    let ext = model::extension(path);
+    if ext.eq_ignore_ascii_case("toml") {
+        let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
+        let base_dir = path.parent().unwrap_or(Path::new(""));
+        return scene_toml::load_scene_text(&text, base_dir, path);
+    }
+    if ModelFormat::from_extension(&ext).is_none() {
+        return Err(FormatError::UnsupportedFormat { file: path.to_path_buf(), extension: ext });
+    }
+    let mut model = load_model(path)?;
+    let warnings = std::mem::take(&mut model.warnings);
+    let scene = scene_for_model(model);
+    scene.validate().map_err(|source| FormatError::Invalid { file: path.to_path_buf(), source })?;
+    Ok(Loaded { scene, warnings })
+}
+
+/// Reads a TOML scene from memory (the embedded [`DEMO_SCENE`], tests). Relative paths in it
+/// are resolved against `base_dir`; `name` stands for the file in messages.
+pub fn load_scene_str(text: &str, base_dir: &Path, name: &str) -> Result<Loaded, FormatError> {
+    scene_toml::load_scene_text(text, base_dir, Path::new(name))
+}
+
+/// Meshes, the materials their `triangle_materials` index, the textures those index.
+pub type MeshParts = (Vec<Mesh>, Vec<Material>, Vec<Texture>);
+
+/// A model file as meshes, with the materials their `triangle_materials` index and the
+/// textures those materials index. Warnings are dropped; use [`load_model`] to see them.
+pub fn load_mesh(path: &Path) -> Result<MeshParts, FormatError> {
+    let m = load_model(path)?;
+    Ok((m.meshes, m.materials, m.textures))
+}
+
+#[cfg(test)]
+pub(crate) mod test_util {
+    use std::path::{Path, PathBuf};
+
+    /// A fresh directory under the system temp dir, removed when dropped.
+    pub struct TempDir(PathBuf);
+
+    impl TempDir {
+        pub fn new(name: &str) -> TempDir {
+            let dir = std::env::temp_dir().join(format!("glint-formats-{}-{name}", std::process::id()));
+            let _ = std::fs::remove_dir_all(&dir);
+            std::fs::create_dir_all(&dir).expect("create temp dir");
+            TempDir(dir)
+        }
+
+        pub fn path(&self) -> &Path {
+            &self.0
+        }
+
+        pub fn join(&self, name: &str) -> PathBuf {
+            self.0.join(name)
+        }
+    }
+
+    impl Drop for TempDir {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}

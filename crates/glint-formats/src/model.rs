@@ -1,0 +1,249 @@
+//! Model files (OBJ, PLY, glTF) as meshes, and a scene to look at one model without a scene file.
+//!
+//! Every loader ends in [`finish_meshes`]: zero-area triangles are dropped with a warning (a
+//! mesh that has none left is an error), so the scene builder and the BVH never see them.
+
+use crate::error::FormatError;
+use crate::scene_toml::Shading;
+use crate::{gltf_file, obj, ply};
+use glint_core::{Affine3A, Bounds3, Rgb, Vec3};
+use glint_scene::{
+    Attenuation, Camera, Fov, Light, Material, Mesh, Object, RenderDefaults, Scene, Shape, Sky, Texture,
+};
+use std::path::Path;
+use std::sync::Arc;
+
+/// A model file read into memory.
+#[derive(Clone, Debug, Default)]
+pub struct Model {
+    pub meshes: Vec<Mesh>,
+    /// Referenced by `Mesh::triangle_materials` (indices into this Vec).
+    pub materials: Vec<Material>,
+    /// Referenced by `Material::texture` (indices into this Vec).
+    pub textures: Vec<Texture>,
+    /// What was recovered from (each starts with the file name).
+    pub warnings: Vec<String>,
+}
+
+/// The model formats glint reads, by file extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum ModelFormat {
+    Obj,
+    Ply,
+    Gltf,
+}
+
+impl ModelFormat {
+    pub(crate) fn from_extension(ext: &str) -> Option<Self> {
+        match ext.to_ascii_lowercase().as_str() {
+            "obj" => Some(Self::Obj),
+            "ply" => Some(Self::Ply),
+            "gltf" | "glb" => Some(Self::Gltf),
+            _ => None,
+        }
+    }
+}
+
+pub(crate) fn extension(path: &Path) -> String {
+    path.extension().map_or_else(String::new, |e| e.to_string_lossy().into_owned())
+}
+
+/// Reads a model file (by extension: .obj, .ply, .gltf, .glb; case-insensitive).
+pub fn load_model(path: &Path) -> Result<Model, FormatError> {
+    let ext = extension(path);
+    match ModelFormat::from_extension(&ext) {
+        Some(ModelFormat::Obj) => obj::load(path),
+        Some(ModelFormat::Ply) => ply::load(path),
+        Some(ModelFormat::Gltf) => gltf_file::load(path),
+        None => Err(FormatError::UnsupportedFormat { file: path.to_path_buf(), extension: ext }),
+    }
+}
+
+/// Drops zero-area triangles (warning per mesh) and meshes left without triangles. It is an
+/// error when no triangle at all remains.
+pub(crate) fn finish_meshes(
+    path: &Path,
+    meshes: &mut Vec<Mesh>,
+    warnings: &mut Vec<String>,
+) -> Result<(), FormatError> {
+    let name = file_name(path);
+    let total: usize = meshes.iter().map(|m| m.triangles.len()).sum();
+    if total == 0 {
+        return Err(FormatError::malformed(path, "geometry", "the file has no triangles"));
+    }
+    let mut dropped_total = 0;
+    for m in meshes.iter_mut() {
+        let dropped = m.remove_degenerate_triangles();
+        if dropped > 0 {
+            dropped_total += dropped;
+            let which = if m.name.is_empty() { String::new() } else { format!(" (mesh '{}')", m.name) };
+            warnings.push(format!("{name}: dropped {dropped} zero-area triangles{which}"));
+        }
+    }
+    meshes.retain(|m| !m.triangles.is_empty());
+    if meshes.is_empty() {
+        return Err(FormatError::malformed(
+            path,
+            "geometry",
+            format!("all {dropped_total} triangles have zero area: nothing is left to render"),
+        ));
+    }
+    Ok(())
+}
+
+/// The file's name without its folders, for warnings.
+pub(crate) fn file_name(path: &Path) -> String {
+    path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned())
+}
+
+/// Applies a scene's `shading` choice to a mesh; `None` keeps what the loader produced.
+pub(crate) fn apply_shading(mesh: &mut Mesh, shading: Option<Shading>) {
+    match shading {
+        Some(Shading::Flat) => mesh.normals = None,
+        Some(Shading::Smooth) if mesh.normals.is_none() => mesh.compute_vertex_normals(),
+        Some(Shading::Smooth) | None => {}
+    }
+}
+
+/// Vertical field of view of the camera [`scene_for_model`] places.
+const MODEL_FOV_DEG: f32 = 40.0;
+
+/// Space left around a framed model, as a fraction of the field of view.
+const MODEL_MARGIN: f32 = 1.25;
+
+/// A scene showing `model` on its own: the camera on the model's +Z side looking along −Z
+/// (DESIGN.md's convention), framed on its bounding box with a small margin for the default
+/// image size (1280×720; a narrower image may cut the sides of a wide model); a key light
+/// (upper left, in front) and a fill light (right, weaker), so that shape reads; a grey sky;
+/// [`Material::default`] where the file gives no material.
+pub fn scene_for_model(model: Model) -> Scene {
+    let Model { meshes, mut materials, textures, .. } = model;
+    let bounds = meshes.iter().fold(Bounds3::EMPTY, |b, m| b.union(m.bounds()));
+    let (centre, extent) = if bounds.is_empty() {
+        (Vec3::ZERO, Vec3::ONE)
+    } else {
+        (bounds.centre(), bounds.extent().max(Vec3::splat(1e-6)))
+    };
+    let radius = extent.length() * 0.5;
+    let render = RenderDefaults::default();
+    let aspect = render.width as f32 / render.height as f32;
+    // The box's front face (z = max) subtends the largest angles: fit its half height and half
+    // width into the vertical and horizontal fields of view.
+    let tan_v = (MODEL_FOV_DEG * 0.5).to_radians().tan();
+    let to_front = (0.5 * extent.y / tan_v).max(0.5 * extent.x / (tan_v * aspect));
+    let distance = 0.5 * extent.z + MODEL_MARGIN * to_front;
+    let camera = Camera {
+        position: centre + Vec3::Z * distance,
+        forward: -Vec3::Z,
+        up: Vec3::Y,
+        fov: Fov::Vertical(MODEL_FOV_DEG),
+    };
+    let key = Light::Point {
+        position: centre + Vec3::new(-1.0, 1.2, 1.5) * (2.0 * radius),
+        colour: Rgb::ONE,
+        intensity: 0.85,
+        attenuation: Attenuation::None,
+    };
+    let fill = Light::Point {
+        position: centre + Vec3::new(1.5, 0.3, 1.0) * (2.0 * radius),
+        colour: Rgb::ONE,
+        intensity: 0.35,
+        attenuation: Attenuation::None,
+    };
+    let default_material = materials.len();
+    materials.push(Material::default());
+    let objects = (0..meshes.len())
+        .map(|i| Object {
+            name: if meshes[i].name.is_empty() { format!("mesh {i}") } else { meshes[i].name.clone() },
+            shape: Shape::Mesh(i),
+            material: default_material,
+            world_from_object: Affine3A::IDENTITY,
+        })
+        .collect();
+    Scene {
+        camera,
+        sky: Sky::Colour(Rgb::splat(0.2)),
+        render,
+        ambient: Rgb::ONE,
+        materials,
+        textures,
+        meshes: meshes.into_iter().map(Arc::new).collect(),
+        objects,
+        lights: vec![key, fill],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quad_model() -> Model {
+        Model {
+            meshes: vec![Mesh {
+                name: "quad".into(),
+                positions: vec![
+                    Vec3::new(-1.0, -1.0, 0.0),
+                    Vec3::new(1.0, -1.0, 0.0),
+                    Vec3::new(1.0, 1.0, 0.0),
+                    Vec3::new(-1.0, 1.0, 0.0),
+                ],
+                triangles: vec![[0, 1, 2], [0, 2, 3]],
+                ..Default::default()
+            }],
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn model_scene_looks_along_minus_z_at_the_model_and_is_valid() {
+        let s = scene_for_model(quad_model());
+        assert_eq!(s.validate(), Ok(()));
+        assert_eq!(s.camera.forward, -Vec3::Z);
+        assert!(s.camera.position.z > 1.0 && s.camera.position.x == 0.0);
+        assert_eq!(s.lights.len(), 2);
+    }
+
+    #[test]
+    fn model_scene_frames_the_model_tightly() {
+        for scale in [Vec3::ONE, Vec3::new(10.0, 1.0, 1.0), Vec3::new(1.0, 10.0, 3.0)] {
+            let mut model = quad_model();
+            for p in &mut model.meshes[0].positions {
+                *p = *p * scale + Vec3::new(5.0, -3.0, 2.0);
+            }
+            let corners = model.meshes[0].positions.clone();
+            let s = scene_for_model(model);
+            let tan_v = (MODEL_FOV_DEG * 0.5).to_radians().tan();
+            let tan_h = tan_v * 1280.0 / 720.0;
+            let mut widest = 0.0f32;
+            for p in corners {
+                let d = p - s.camera.position;
+                let (v, h) = ((d.y / -d.z).abs() / tan_v, (d.x / -d.z).abs() / tan_h);
+                assert!(v < 1.0 && h < 1.0, "{p} is outside the view ({v}, {h})");
+                widest = widest.max(v).max(h);
+            }
+            assert!(widest > 0.75, "the model fills the view along one axis: {widest}");
+        }
+    }
+
+    #[test]
+    fn all_degenerate_meshes_are_an_error() {
+        let mut meshes = vec![Mesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0],
+            triangles: vec![[0, 1, 2]],
+            ..Default::default()
+        }];
+        let err = finish_meshes(Path::new("flat.obj"), &mut meshes, &mut Vec::new()).expect_err("degenerate");
+        assert!(err.to_string().starts_with("flat.obj"), "{err}");
+    }
+
+    #[test]
+    fn degenerate_triangles_are_dropped_with_a_warning() {
+        let mut m = quad_model();
+        m.meshes[0].triangles.push([0, 0, 1]);
+        let mut warnings = Vec::new();
+        finish_meshes(Path::new("q.obj"), &mut m.meshes, &mut warnings).expect("one good triangle left");
+        assert_eq!(m.meshes[0].triangles.len(), 2);
+        assert_eq!(warnings.len(), 1);
+        assert!(warnings[0].starts_with("q.obj: dropped 1 zero-area"), "{}", warnings[0]);
+    }
+}

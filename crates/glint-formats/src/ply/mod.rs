@@ -1,0 +1,164 @@
+//! PLY (Stanford polygon file format): ASCII, binary little- and big-endian.
+//!
+//! Two layers. [`read_ply`] / [`parse_ply`] are a general element/property reader returning
+//! named columns, for meshes and point clouds alike ([`header`], [`body`]). [`load`] builds a
+//! mesh on top: vertex `x y z` (+ `nx ny nz`, + `u v` / `s t` / `texture_u texture_v`), faces
+//! from `vertex_indices` (or `vertex_index`) lists of any integer type, polygons split into
+//! fans. Meshes without normals get smooth (area-weighted) vertex normals: PLY meshes are
+//! almost always scans of smooth surfaces.
+
+mod body;
+mod header;
+
+pub use body::{Column, ElementData, PlyData};
+pub use header::{Element, Header, PlyFormat, Property, PropertyKind, ScalarType};
+
+use crate::error::FormatError;
+use crate::model::{self, Model};
+use glint_core::{Vec2, Vec3};
+use glint_scene::Mesh;
+use std::path::Path;
+
+/// Reads a PLY file, keeping the properties `select` picks (by element and property).
+pub fn read_ply(path: &Path, select: &dyn Fn(&Element, &Property) -> bool) -> Result<PlyData, FormatError> {
+    let data = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    parse_ply(path, &data, select)
+}
+
+/// Reads PLY data already in memory; `path` names it in messages.
+pub fn parse_ply(
+    path: &Path,
+    data: &[u8],
+    select: &dyn Fn(&Element, &Property) -> bool,
+) -> Result<PlyData, FormatError> {
+    let header = header::parse_header(path, data)?;
+    body::read_body(path, data, header, select)
+}
+
+const VERTEX_PROPERTIES: [&str; 14] =
+    ["x", "y", "z", "nx", "ny", "nz", "u", "v", "s", "t", "texture_u", "texture_v", "texture_s", "texture_t"];
+const UV_NAMES: [(&str, &str); 4] = [("u", "v"), ("s", "t"), ("texture_u", "texture_v"), ("texture_s", "texture_t")];
+
+fn mesh_selection(e: &Element, p: &Property) -> bool {
+    match e.name.as_str() {
+        "vertex" => VERTEX_PROPERTIES.contains(&p.name.as_str()),
+        "face" => p.name == "vertex_indices" || p.name == "vertex_index",
+        _ => false,
+    }
+}
+
+/// Reads a PLY mesh file.
+pub(crate) fn load(path: &Path) -> Result<Model, FormatError> {
+    let data = read_ply(path, &mesh_selection)?;
+    let mut warnings = Vec::new();
+    let mesh = mesh_from_ply(path, &data, &mut warnings)?;
+    let mut meshes = vec![mesh];
+    model::finish_meshes(path, &mut meshes, &mut warnings)?;
+    for m in &mut meshes {
+        if m.normals.is_none() {
+            m.compute_vertex_normals();
+        }
+    }
+    Ok(Model { meshes, warnings, ..Model::default() })
+}
+
+fn scalar_column(path: &Path, e: &ElementData, name: &str) -> Result<Option<Vec<f32>>, FormatError> {
+    match e.column(name) {
+        None => Ok(None),
+        Some(c) => c.to_f32().map(Some).ok_or_else(|| {
+            FormatError::malformed(path, "header", format!("property '{name}' of '{}' is a list, not a number", e.name))
+        }),
+    }
+}
+
+/// Builds the mesh of a PLY file read with [`mesh_selection`].
+fn mesh_from_ply(path: &Path, data: &PlyData, warnings: &mut Vec<String>) -> Result<Mesh, FormatError> {
+    let name = model::file_name(path);
+    let Some(vertex) = data.element("vertex") else {
+        return Err(FormatError::malformed(path, "header", "no `element vertex`"));
+    };
+    if vertex.count > u32::MAX as usize {
+        return Err(FormatError::limits(path, format!("{} vertices are more than glint can index", vertex.count)));
+    }
+    let coords = ["x", "y", "z"].map(|c| scalar_column(path, vertex, c));
+    let [Ok(Some(x)), Ok(Some(y)), Ok(Some(z))] = coords else {
+        return Err(FormatError::malformed(path, "header", "element 'vertex' needs float properties x, y and z"));
+    };
+    let positions: Vec<Vec3> = (0..vertex.count).map(|i| Vec3::new(x[i], y[i], z[i])).collect();
+    if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+        return Err(FormatError::malformed(path, format!("vertex {i}"), "a coordinate is NaN or infinite"));
+    }
+
+    let normals = match ["nx", "ny", "nz"].map(|c| scalar_column(path, vertex, c)) {
+        [Ok(Some(nx)), Ok(Some(ny)), Ok(Some(nz))] => {
+            let raw: Vec<Vec3> = (0..vertex.count).map(|i| Vec3::new(nx[i], ny[i], nz[i])).collect();
+            if let Some(i) = raw.iter().position(|n| !n.is_finite()) {
+                return Err(FormatError::malformed(path, format!("vertex {i}"), "the normal is NaN or infinite"));
+            }
+            let unit: Option<Vec<Vec3>> = raw.iter().map(|n| n.try_normalize()).collect();
+            if unit.is_none() {
+                warnings.push(format!("{name}: some vertex normals have zero length; normals recomputed"));
+            }
+            unit
+        }
+        _ => None,
+    };
+
+    let mut uvs = None;
+    for (u, v) in UV_NAMES {
+        if let (Some(us), Some(vs)) = (scalar_column(path, vertex, u)?, scalar_column(path, vertex, v)?) {
+            let uv: Vec<Vec2> = us.iter().zip(&vs).map(|(&u, &v)| Vec2::new(u, v)).collect();
+            if let Some(i) = uv.iter().position(|t| !t.is_finite()) {
+                return Err(FormatError::malformed(path, format!("vertex {i}"), "a texture coordinate is NaN"));
+            }
+            uvs = Some(uv);
+            break;
+        }
+    }
+
+    let Some(face) = data.element("face") else {
+        return Err(FormatError::malformed(path, "header", "no `element face`: this is a point cloud, not a mesh"));
+    };
+    let column = face.column("vertex_indices").or_else(|| face.column("vertex_index"));
+    let Some(Column::IndexList { counts, values }) = column else {
+        return Err(FormatError::malformed(path, "header", "element 'face' needs a list property 'vertex_indices'"));
+    };
+    let n = positions.len() as u32;
+    if let Some(k) = values.iter().position(|&v| v >= n) {
+        // Find the face holding item k for the message.
+        let mut start = 0usize;
+        let face_index = counts.iter().position(|&c| {
+            start += c as usize;
+            start > k
+        });
+        return Err(FormatError::malformed(
+            path,
+            format!("face {}", face_index.unwrap_or(0)),
+            format!("vertex index {} is out of range (the file has {n} vertices)", values[k]),
+        ));
+    }
+    let triangle_count: usize = counts.iter().map(|&c| (c as usize).saturating_sub(2)).sum();
+    let mut triangles = Vec::with_capacity(triangle_count);
+    let mut start = 0;
+    let mut short = 0;
+    for &c in counts {
+        let c = c as usize;
+        let poly = &values[start..start + c];
+        start += c;
+        if c < 3 {
+            short += 1;
+            continue;
+        }
+        for k in 1..c - 1 {
+            triangles.push([poly[0], poly[k], poly[k + 1]]);
+        }
+    }
+    if short > 0 {
+        warnings.push(format!("{name}: skipped {short} faces with fewer than 3 vertices"));
+    }
+    let stem = path.file_stem().map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+    Ok(Mesh { name: stem, positions, normals, uvs, triangles, triangle_materials: None })
+}
+
+#[cfg(test)]
+mod tests;

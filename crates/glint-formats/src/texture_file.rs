@@ -1,0 +1,56 @@
+//! Texture images from files, decoded to linear RGB by glint-image.
+//!
+//! glint-image owns image decoding (PNG/JPEG sRGB-decoded to linear, HDR/EXR linear, sizes
+//! checked before allocating); this module turns its result into a [`TextureImage`] (rows top
+//! to bottom) and its errors into [`FormatError`]s. glTF images embedded in buffers are decoded
+//! from memory in `gltf_file` (glint-image reads files only).
+
+use crate::error::FormatError;
+use glint_core::Rgb;
+use glint_image::ImageError;
+use glint_scene::TextureImage;
+use std::path::Path;
+
+/// Largest texture side accepted (a 16384² RGB f32 texture is already 3 GiB).
+const MAX_TEXTURE_SIDE: u32 = 16_384;
+
+/// Reads an image file as a linear-RGB texture.
+pub(crate) fn read_texture_image(path: &Path) -> Result<TextureImage, FormatError> {
+    let (width, height, texels) = glint_image::read_texture(path).map_err(|e| image_error(path, e))?;
+    check_size(path, width, height)?;
+    let texels = texels.into_iter().map(|c| Rgb::from_array(c.map(|v| if v.is_finite() { v.max(0.0) } else { 0.0 })));
+    Ok(TextureImage { width, height, texels: texels.collect() })
+}
+
+fn image_error(path: &Path, e: ImageError) -> FormatError {
+    match e {
+        ImageError::Io { source, .. } => FormatError::io(path, source),
+        ImageError::Limits { message, .. } => FormatError::limits(path, format!("image too large: {message}")),
+        ImageError::Decode { message, .. } => FormatError::malformed(path, "image data", message),
+        ImageError::UnsupportedFormat { .. } => {
+            FormatError::malformed(path, "image data", "not a PNG, JPEG, Radiance HDR or OpenEXR image")
+        }
+        other => FormatError::malformed(path, "image data", other.to_string()),
+    }
+}
+
+pub(crate) fn check_size(path: &Path, width: u32, height: u32) -> Result<(), FormatError> {
+    if width == 0 || height == 0 || width > MAX_TEXTURE_SIDE || height > MAX_TEXTURE_SIDE {
+        return Err(FormatError::limits(
+            path,
+            format!("texture size {width}x{height} is outside 1..={MAX_TEXTURE_SIDE} per side"),
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_missing_image_is_an_io_error_naming_it() {
+        let err = read_texture_image(Path::new("/nonexistent/tex.png")).expect_err("missing");
+        assert!(err.to_string().starts_with("/nonexistent/tex.png"), "{err}");
+    }
+}
