@@ -232,7 +232,7 @@ impl Scene {
         }
         match o.shape {
             Shape::Sphere { centre, radius } => {
-                if !centre.is_finite() || !(radius.is_finite() && radius > 0.0) {
+                if !(centre.is_finite() && radius.is_finite() && radius > 0.0) {
                     return Err(SceneError::invalid(
                         what(),
                         format!("sphere needs a finite centre and radius > 0 (radius = {radius})"),

@@ -1,0 +1,225 @@
+//! [`MeshBvh`]: the production acceleration structure of one triangle mesh — the binned SAH
+//! binary tree ([`crate::build`]) collapsed into a wide layout ([`crate::wide`]) and traversed
+//! by the fastest kernel of the machine.
+
+use crate::build::{BuildOptions, Width};
+use crate::bvh2::Bvh2;
+use crate::wide::{Bvh4, Bvh8, Isa};
+use crate::{BvhStats, Hit};
+use glint_core::{Bounds3, Ray, Vec3};
+use std::time::Instant;
+
+#[derive(Clone, Debug, PartialEq)]
+enum Layout {
+    Four(Bvh4),
+    Eight(Bvh8),
+}
+
+/// BVH over one triangle mesh. `Hit::prim` is the index into the `triangles` given to `build`.
+#[derive(Clone, Debug)]
+pub struct MeshBvh {
+    layout: Layout,
+    isa: Isa,
+    stats: BvhStats,
+}
+
+impl MeshBvh {
+    /// Builds over `triangles` (vertex indices into `positions`). Triangles with an out-of-range
+    /// index or a non-finite vertex are never hit (also after a refit that makes them valid).
+    pub fn build(positions: &[Vec3], triangles: &[[u32; 3]], options: &BuildOptions) -> MeshBvh {
+        let start = Instant::now();
+        let bvh2 = Bvh2::build(positions, triangles, options);
+        let isa = Isa::detect();
+        let width = match options.width {
+            Width::Auto => Width::preferred(isa),
+            w => w,
+        };
+        let layout = match width {
+            Width::Eight => Layout::Eight(Bvh8::from_bvh2(&bvh2, positions, triangles)),
+            _ => Layout::Four(Bvh4::from_bvh2(&bvh2, positions, triangles)),
+        };
+        let (nodes, leaves, depth, node_bytes) = match &layout {
+            Layout::Four(b) => (b.nodes().len(), b.leaf_count(), b.depth(), b.node_bytes()),
+            Layout::Eight(b) => (b.nodes().len(), b.leaf_count(), b.depth(), b.node_bytes()),
+        };
+        let stats = BvhStats {
+            nodes,
+            leaves,
+            depth,
+            node_bytes,
+            sah_cost: bvh2.sah_cost(),
+            build_ms: start.elapsed().as_secs_f64() * 1e3,
+        };
+        MeshBvh { layout, isa, stats }
+    }
+
+    /// Closest hit in `(tmin, tmax]`.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        match &self.layout {
+            Layout::Four(b) => b.intersect_isa(self.isa, ray),
+            Layout::Eight(b) => b.intersect_isa(self.isa, ray),
+        }
+    }
+
+    /// Any hit in `(tmin, tmax]`; stops at the first.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        match &self.layout {
+            Layout::Four(b) => b.occluded_isa(self.isa, ray),
+            Layout::Eight(b) => b.occluded_isa(self.isa, ray),
+        }
+    }
+
+    /// Same triangles, moved vertices: recomputes boxes and leaf data without rebuilding.
+    pub fn refit(&mut self, positions: &[Vec3]) {
+        match &mut self.layout {
+            Layout::Four(b) => b.refit(positions),
+            Layout::Eight(b) => b.refit(positions),
+        }
+    }
+
+    pub fn bounds(&self) -> Bounds3 {
+        match &self.layout {
+            Layout::Four(b) => b.bounds(),
+            Layout::Eight(b) => b.bounds(),
+        }
+    }
+
+    pub fn stats(&self) -> BvhStats {
+        self.stats
+    }
+
+    /// Node width of the layout in use (4 or 8).
+    pub fn width(&self) -> usize {
+        match &self.layout {
+            Layout::Four(_) => 4,
+            Layout::Eight(_) => 8,
+        }
+    }
+
+    /// Node arrays and leaf data equal (the determinism test).
+    #[cfg(test)]
+    pub(crate) fn same_layout(&self, other: &MeshBvh) -> bool {
+        self.layout == other.layout
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::procedural::{Rng, displaced_sphere, icosphere, tessellated_cube, triangle_soup};
+    use crate::test_util::{random_rays, same_hit, shoot_at_edges};
+    use crate::{brute_force_intersect, brute_force_occluded};
+    use proptest::prelude::*;
+
+    fn check_against_brute_force(positions: &[Vec3], triangles: &[[u32; 3]], bvh: &MeshBvh, seed: u64) {
+        let bvh2 = Bvh2::build(positions, triangles, &BuildOptions::default());
+        for (i, ray) in random_rays(96, seed).iter().enumerate() {
+            let want = brute_force_intersect(positions, triangles, ray);
+            let got = bvh.intersect(ray);
+            assert!(same_hit(got, want), "ray {i} {ray:?}: bvh {got:?} brute {want:?}");
+            let got2 = bvh2.intersect(positions, triangles, ray);
+            assert!(same_hit(got2, want), "ray {i} {ray:?}: bvh2 {got2:?} brute {want:?}");
+            let occ = brute_force_occluded(positions, triangles, ray);
+            assert_eq!(bvh.occluded(ray), occ, "ray {i} {ray:?}");
+            assert_eq!(bvh2.occluded(positions, triangles, ray), occ, "ray {i} {ray:?}");
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(96))]
+        #[test]
+        fn random_soups_match_brute_force(n in 1usize..160, size in 0.01f32..0.8, seed in any::<u64>(), leaf in 1usize..9) {
+            let m = triangle_soup(n, size, seed);
+            let opts = BuildOptions { max_leaf_size: leaf, ..BuildOptions::default() };
+            let bvh = MeshBvh::build(&m.positions, &m.triangles, &opts);
+            check_against_brute_force(&m.positions, &m.triangles, &bvh, seed ^ 1);
+        }
+
+        #[test]
+        fn refit_matches_brute_force(n in 1usize..120, seed in any::<u64>()) {
+            let m = triangle_soup(n, 0.3, seed);
+            let mut bvh = MeshBvh::build(&m.positions, &m.triangles, &BuildOptions::default());
+            let mut rng = Rng::new(seed ^ 7);
+            let moved: Vec<Vec3> = m.positions.iter().map(|p| *p + (rng.next_vec3() - 0.5) * 0.4).collect();
+            bvh.refit(&moved);
+            check_against_brute_force(&moved, &m.triangles, &bvh, seed ^ 2);
+        }
+    }
+
+    #[test]
+    fn empty_and_single_triangle() {
+        let empty = MeshBvh::build(&[], &[], &BuildOptions::default());
+        let ray = Ray::new(Vec3::ZERO, Vec3::X);
+        assert!(empty.intersect(&ray).is_none());
+        assert!(!empty.occluded(&ray));
+        assert!(empty.bounds().is_empty());
+        let p = [Vec3::new(0.0, 0.0, -1.0), Vec3::new(1.0, 0.0, -1.0), Vec3::new(0.0, 1.0, -1.0)];
+        let one = MeshBvh::build(&p, &[[0, 1, 2]], &BuildOptions::default());
+        let hit = one.intersect(&Ray::new(Vec3::new(0.2, 0.2, 0.0), -Vec3::Z)).expect("hit");
+        assert_eq!((hit.prim, hit.t), (0, 1.0));
+        // Invalid indices and NaN vertices are never hit and do not panic.
+        let bad = MeshBvh::build(&p, &[[0, 1, 7], [0, 1, 2]], &BuildOptions::default());
+        assert_eq!(bad.intersect(&Ray::new(Vec3::new(0.2, 0.2, 0.0), -Vec3::Z)).map(|h| h.prim), Some(1));
+        let mut nan = p.to_vec();
+        nan.push(Vec3::NAN);
+        let bad = MeshBvh::build(&nan, &[[0, 1, 3], [3, 3, 3]], &BuildOptions::default());
+        assert!(bad.intersect(&Ray::new(Vec3::new(0.2, 0.2, 0.0), -Vec3::Z)).is_none());
+        // A NaN ray.
+        assert!(one.intersect(&Ray::new(Vec3::NAN, -Vec3::Z)).is_none());
+        assert!(!one.occluded(&Ray::new(Vec3::ZERO, Vec3::NAN)));
+    }
+
+    #[test]
+    fn degenerate_inputs_build_and_traverse() {
+        // All triangles at one point.
+        let positions = vec![Vec3::ONE; 3];
+        let triangles = vec![[0, 1, 2]; 5000];
+        let bvh = MeshBvh::build(&positions, &triangles, &BuildOptions::default());
+        assert!(bvh.intersect(&Ray::new(Vec3::ZERO, Vec3::ONE)).is_none());
+        // Many coincident copies of one triangle: some copy is hit at the right distance.
+        let positions = vec![Vec3::new(0.0, 0.0, -2.0), Vec3::new(1.0, 0.0, -2.0), Vec3::new(0.0, 1.0, -2.0)];
+        let triangles = vec![[0, 1, 2]; 3000];
+        let bvh = MeshBvh::build(&positions, &triangles, &BuildOptions::default());
+        let ray = Ray::new(Vec3::new(0.25, 0.25, 0.0), -Vec3::Z);
+        assert_eq!(bvh.intersect(&ray).map(|h| h.t), Some(2.0));
+        assert!(bvh.occluded(&ray));
+        assert!(bvh.stats().depth < 40);
+    }
+
+    #[test]
+    fn closed_meshes_are_watertight() {
+        let ico = icosphere(5);
+        let cube = tessellated_cube(24);
+        for m in [&ico, &cube] {
+            let bvh = MeshBvh::build(&m.positions, &m.triangles, &BuildOptions::default());
+            shoot_at_edges(m, 600_000, 11, |r| (bvh.intersect(r).is_some(), bvh.occluded(r)));
+        }
+    }
+
+    #[test]
+    fn bvh2_is_watertight() {
+        let ico = icosphere(4);
+        let b = Bvh2::build(&ico.positions, &ico.triangles, &BuildOptions::default());
+        shoot_at_edges(&ico, 100_000, 5, |r| {
+            (b.intersect(&ico.positions, &ico.triangles, r).is_some(), b.occluded(&ico.positions, &ico.triangles, r))
+        });
+    }
+
+    #[test]
+    fn build_is_deterministic_across_thread_counts() {
+        let m = displaced_sphere(150_000);
+        let opts = BuildOptions { parallel_threshold: 256, ..BuildOptions::default() };
+        let build = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
+            pool.install(|| {
+                (Bvh2::build(&m.positions, &m.triangles, &opts), MeshBvh::build(&m.positions, &m.triangles, &opts))
+            })
+        };
+        let (a2, am) = build(1);
+        let (b2, bm) = build(2);
+        assert!(a2 == b2, "binary trees differ");
+        assert!(am.same_layout(&bm), "mesh BVH layouts differ");
+    }
+}

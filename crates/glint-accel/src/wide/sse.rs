@@ -1,0 +1,259 @@
+//! x86-64 SSE2: the 4-lane vector [`F4`] (node test of 4-wide nodes, and the triangle packet
+//! test of every width) and the 4-wide entry points. SSE2 is part of the x86-64 baseline, so
+//! these run everywhere without detection; the same `#[inline(always)]` code is recompiled with
+//! VEX encoding when `avx2.rs` inlines it.
+//!
+//! Packet test: Woop, Benthin, Wald 2013 on four lanes, the same operations in the same order
+//! as `primitives::woop` and no FMA, so lanes are bit-identical to the scalar test; lanes
+//! whose edge functions come out exactly zero are handed to the scalar test and its f64
+//! recomputation.
+
+use super::traverse::{self, Simd};
+use super::{PACKET, TriPacket, WideBvh};
+use crate::Hit;
+use crate::primitives::{WoopRay, woop};
+use glint_core::Ray;
+use std::arch::x86_64::*;
+
+// SAFETY (every `unsafe` block in this file that calls an SSE/SSE2 intrinsic): SSE and SSE2 are
+// part of the x86-64 baseline, so every CPU this code can run on has them.
+
+/// Four f32 lanes in an SSE register.
+#[derive(Clone, Copy)]
+pub(super) struct F4(__m128);
+
+impl Simd<4> for F4 {
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        // SAFETY: SSE2 baseline (see the top of the file).
+        F4(unsafe { _mm_set1_ps(x) })
+    }
+    #[inline(always)]
+    fn load(a: &[f32; 4]) -> Self {
+        // SAFETY: `a` is 16 readable bytes, `loadu` needs no alignment; SSE2 baseline.
+        F4(unsafe { _mm_loadu_ps(a.as_ptr()) })
+    }
+    #[inline(always)]
+    fn store(self) -> [f32; 4] {
+        let mut a = [0.0f32; 4];
+        // SAFETY: `a` is 16 writable bytes, `storeu` needs no alignment; SSE2 baseline.
+        unsafe { _mm_storeu_ps(a.as_mut_ptr(), self.0) };
+        a
+    }
+    #[inline(always)]
+    fn sub(self, o: Self) -> Self {
+        // SAFETY: SSE2 baseline.
+        F4(unsafe { _mm_sub_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn mul(self, o: Self) -> Self {
+        // SAFETY: SSE2 baseline.
+        F4(unsafe { _mm_mul_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        // SAFETY: SSE2 baseline.
+        F4(unsafe { _mm_max_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn min(self, o: Self) -> Self {
+        // SAFETY: SSE2 baseline.
+        F4(unsafe { _mm_min_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn le_mask(self, o: Self) -> u32 {
+        // SAFETY: SSE2 baseline.
+        unsafe { _mm_movemask_ps(_mm_cmple_ps(self.0, o.0)) as u32 }
+    }
+}
+
+impl F4 {
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        // SAFETY: SSE2 baseline.
+        F4(unsafe { _mm_add_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn div(self, o: Self) -> Self {
+        // SAFETY: SSE2 baseline.
+        F4(unsafe { _mm_div_ps(self.0, o.0) })
+    }
+    /// Lane masks (all ones / all zeros) of comparisons, and their bit logic.
+    #[inline(always)]
+    fn eq(self, o: Self) -> Self {
+        // SAFETY: SSE2 baseline.
+        F4(unsafe { _mm_cmpeq_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn lt(self, o: Self) -> Self {
+        // SAFETY: SSE2 baseline.
+        F4(unsafe { _mm_cmplt_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn gt(self, o: Self) -> Self {
+        // SAFETY: SSE2 baseline.
+        F4(unsafe { _mm_cmpgt_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn le(self, o: Self) -> Self {
+        // SAFETY: SSE2 baseline.
+        F4(unsafe { _mm_cmple_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn ne(self, o: Self) -> Self {
+        // SAFETY: SSE2 baseline.
+        F4(unsafe { _mm_cmpneq_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn or(self, o: Self) -> Self {
+        // SAFETY: SSE2 baseline.
+        F4(unsafe { _mm_or_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn and(self, o: Self) -> Self {
+        // SAFETY: SSE2 baseline.
+        F4(unsafe { _mm_and_ps(self.0, o.0) })
+    }
+    /// `!self & o`.
+    #[inline(always)]
+    fn andnot(self, o: Self) -> Self {
+        // SAFETY: SSE2 baseline.
+        F4(unsafe { _mm_andnot_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn bits(self) -> u32 {
+        // SAFETY: SSE2 baseline.
+        unsafe { _mm_movemask_ps(self.0) as u32 }
+    }
+}
+
+/// Per-ray constants of the packet test.
+pub(super) struct TriRay4 {
+    k: [usize; 3],
+    org: [F4; 3],
+    s: [F4; 3],
+    tmin: F4,
+    woop: WoopRay,
+    tmin_s: f32,
+}
+
+impl TriRay4 {
+    #[inline(always)]
+    pub fn new(ray: &Ray) -> Self {
+        let w = WoopRay::new(ray);
+        let k = [w.kx, w.ky, w.kz];
+        Self {
+            k,
+            org: k.map(|a| F4::splat(w.org[a])),
+            s: [F4::splat(w.sx), F4::splat(w.sy), F4::splat(w.sz)],
+            tmin: F4::splat(ray.tmin),
+            woop: w,
+            tmin_s: ray.tmin,
+        }
+    }
+}
+
+/// The lanes after the watertight test: hits (lanes with a zero edge function excluded),
+/// lanes needing the exact fallback, and t, V, W, det.
+struct Lanes4 {
+    hit: u32,
+    zero: u32,
+    t: F4,
+    v: F4,
+    w: F4,
+    det: F4,
+}
+
+#[inline(always)]
+fn tri4(p: &TriPacket, r: &TriRay4, tmax: F4) -> Lanes4 {
+    let [kx, ky, kz] = r.k;
+    let rel = |vert: usize, a: usize, o: usize| F4::load(&p.v[vert][a]).sub(r.org[o]);
+    let (ax, ay, az) = (rel(0, kx, 0), rel(0, ky, 1), rel(0, kz, 2));
+    let (bx, by, bz) = (rel(1, kx, 0), rel(1, ky, 1), rel(1, kz, 2));
+    let (cx, cy, cz) = (rel(2, kx, 0), rel(2, ky, 1), rel(2, kz, 2));
+    let [sx, sy, sz] = r.s;
+    // Shear, then the 2-D edge functions: multiply and subtract, never fused.
+    let ax = ax.sub(sx.mul(az));
+    let ay = ay.sub(sy.mul(az));
+    let bx = bx.sub(sx.mul(bz));
+    let by = by.sub(sy.mul(bz));
+    let cx = cx.sub(sx.mul(cz));
+    let cy = cy.sub(sy.mul(cz));
+    let u = cx.mul(by).sub(cy.mul(bx));
+    let v = ax.mul(cy).sub(ay.mul(cx));
+    let w = bx.mul(ay).sub(by.mul(ax));
+    let zero = F4::splat(0.0);
+    let any_zero = u.eq(zero).or(v.eq(zero)).or(w.eq(zero));
+    let any_neg = u.lt(zero).or(v.lt(zero)).or(w.lt(zero));
+    let any_pos = u.gt(zero).or(v.gt(zero)).or(w.gt(zero));
+    let det = u.add(v).add(w);
+    let t = u.mul(sz.mul(az)).add(v.mul(sz.mul(bz))).add(w.mul(sz.mul(cz)));
+    let t = t.div(det);
+    let ok = t.gt(r.tmin).and(t.le(tmax)).and(det.ne(zero));
+    let ok = any_neg.and(any_pos).andnot(ok);
+    let zero_bits = any_zero.bits();
+    Lanes4 { hit: ok.bits() & !zero_bits, zero: zero_bits, t, v, w, det }
+}
+
+const _: () = assert!(PACKET == 4);
+
+/// Closest-hit leaf step: tests one packet, updates `best`, returns the new `tmax`.
+#[inline(always)]
+pub(super) fn packet_closest(p: &TriPacket, r: &TriRay4, tmax: f32, best: &mut Option<Hit>) -> f32 {
+    let l = tri4(p, r, F4::splat(tmax));
+    let mut tmax = tmax;
+    if l.hit != 0 {
+        let t = l.t.store();
+        let mut m = l.hit;
+        let mut lane = m.trailing_zeros() as usize & 3;
+        m &= m - 1;
+        while m != 0 {
+            let i = m.trailing_zeros() as usize & 3;
+            if t[i] < t[lane] {
+                lane = i;
+            }
+            m &= m - 1;
+        }
+        let (v, w, det) = (l.v.store(), l.w.store(), l.det.store());
+        tmax = t[lane];
+        *best = Some(Hit { t: t[lane], prim: p.prim[lane], u: v[lane] / det[lane], v: w[lane] / det[lane] });
+    }
+    let mut z = l.zero;
+    while z != 0 {
+        let lane = z.trailing_zeros() as usize & 3;
+        let [a, b, c] = p.lane(lane);
+        if let Some(h) = woop(&r.woop, a, b, c, r.tmin_s, tmax) {
+            tmax = h.t;
+            *best = Some(Hit { t: h.t, prim: p.prim[lane], u: h.u, v: h.v });
+        }
+        z &= z - 1;
+    }
+    tmax
+}
+
+/// Any-hit leaf step.
+#[inline(always)]
+pub(super) fn packet_any(p: &TriPacket, r: &TriRay4, tmax: f32) -> bool {
+    let l = tri4(p, r, F4::splat(tmax));
+    if l.hit != 0 {
+        return true;
+    }
+    let mut z = l.zero;
+    while z != 0 {
+        let lane = z.trailing_zeros() as usize & 3;
+        let [a, b, c] = p.lane(lane);
+        if woop(&r.woop, a, b, c, r.tmin_s, tmax).is_some() {
+            return true;
+        }
+        z &= z - 1;
+    }
+    false
+}
+
+pub(super) fn intersect(bvh: &WideBvh<4>, ray: &Ray) -> Option<Hit> {
+    traverse::closest::<4, F4>(bvh, ray)
+}
+
+pub(super) fn occluded(bvh: &WideBvh<4>, ray: &Ray) -> bool {
+    traverse::occluded::<4, F4>(bvh, ray)
+}

@@ -1,0 +1,245 @@
+//! `glint bench`: measured, never guessed. `rays` times traversal on a fixed ray set (and dumps
+//! it for the Embree scripts in ../shared/bench); `whitted` times whole frames.
+
+use crate::cli::{BenchCommand, BenchRaysArgs, BenchWhittedArgs, RayKind, ScheduleArg};
+use crate::input;
+use anyhow::{Context, Result, bail};
+use glint_core::random::SampleStream;
+use glint_core::sampling::sample_cosine_hemisphere;
+use glint_core::{Frame, Ray, Vec2, Vec3};
+use glint_render::{RenderSettings, Schedule, World};
+use glint_scene::Mesh;
+use rayon::prelude::*;
+use std::io::Write;
+
+/// Print a line to stdout; a closed pipe (`glint bench ... | head`) ends the command quietly
+/// instead of panicking.
+macro_rules! out {
+    ($($arg:tt)*) => {
+        writeln!(std::io::stdout(), $($arg)*).context("cannot write to standard output")?
+    };
+}
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The thesis's benchmark scene (DESIGN.md §1), as shipped in scenes/.
+const WHITTED_BENCH_SCENE: &str = include_str!("../../../../scenes/whitted-bench.toml");
+
+pub fn run(cmd: BenchCommand) -> Result<()> {
+    match cmd {
+        BenchCommand::Rays(a) => rays(&a),
+        BenchCommand::Whitted(a) => whitted(&a),
+    }
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
+}
+
+/// The ray set of a benchmark: generated once, in pixel order, deterministic in the seed.
+fn make_rays(world: &World, kind: RayKind, width: u32, height: u32, seed: u64) -> Vec<Ray> {
+    let cam = world.scene.camera.rays(width, height);
+    let primary: Vec<Ray> = (0..height)
+        .flat_map(|y| (0..width).map(move |x| (x, y)))
+        .map(|(x, y)| cam.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5)))
+        .collect();
+    if kind == RayKind::Primary {
+        return primary;
+    }
+    let light = world.scene.lights.iter().find_map(|l| l.position()).unwrap_or_else(|| {
+        let b = world.scene.bounds();
+        b.centre() + Vec3::new(0.3, 1.0, 0.5) * b.diagonal_length().max(1.0) * 2.0
+    });
+    primary
+        .par_iter()
+        .enumerate()
+        .filter_map(|(i, r)| {
+            let hit = world.intersect(r)?;
+            Some(match kind {
+                RayKind::Shadow => hit.spawn_ray_to(light),
+                _ => {
+                    let n = if hit.geometric_normal.dot(r.dir) < 0.0 {
+                        hit.geometric_normal
+                    } else {
+                        -hit.geometric_normal
+                    };
+                    let mut s = SampleStream::new(i as u64, 0, seed);
+                    let d = Frame::from_z(n).to_world(sample_cosine_hemisphere(s.next_2d()));
+                    hit.spawn_ray(d)
+                }
+            })
+        })
+        .collect()
+}
+
+fn write_f32s(path: &Path, data: impl Iterator<Item = f32>) -> Result<()> {
+    let mut bytes = Vec::new();
+    for v in data {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    let mut f = std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
+    f.write_all(&bytes).with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}
+
+fn with_suffix(prefix: &Path, suffix: &str) -> PathBuf {
+    let mut s = prefix.as_os_str().to_owned();
+    s.push(suffix);
+    PathBuf::from(s)
+}
+
+/// Midpoint subdivision: each triangle becomes four. Edge midpoints are computed from the same
+/// two endpoints in either order (IEEE addition commutes), so neighbours agree exactly and the
+/// surface stays watertight although midpoints are not shared.
+fn subdivide(m: &Mesh) -> Mesh {
+    let mut out = Mesh { name: m.name.clone(), ..Mesh::default() };
+    let mut normals = m.normals.as_ref().map(|_| Vec::new());
+    let mut mats = m.triangle_materials.as_ref().map(|_| Vec::new());
+    for (ti, t) in m.triangles.iter().enumerate() {
+        let p = t.map(|i| m.positions[i as usize]);
+        let mid = |a: usize, b: usize| (p[a] + p[b]) * 0.5;
+        let pts = [p[0], p[1], p[2], mid(0, 1), mid(1, 2), mid(2, 0)];
+        let base = out.positions.len() as u32;
+        out.positions.extend_from_slice(&pts);
+        if let (Some(ns), Some(src)) = (&mut normals, &m.normals) {
+            let n = t.map(|i| src[i as usize]);
+            let nm = |a: usize, b: usize| (n[a] + n[b]).normalize_or(n[a]);
+            ns.extend_from_slice(&[n[0], n[1], n[2], nm(0, 1), nm(1, 2), nm(2, 0)]);
+        }
+        for tri in [[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]] {
+            out.triangles.push(tri.map(|k| base + k));
+            if let (Some(ms), Some(src)) = (&mut mats, &m.triangle_materials) {
+                ms.push(src[ti]);
+            }
+        }
+    }
+    out.normals = normals;
+    out.triangle_materials = mats;
+    out
+}
+
+fn rays(a: &BenchRaysArgs) -> Result<()> {
+    if a.reps == 0 {
+        bail!("--reps must be at least 1");
+    }
+    let pool = input::thread_pool(a.threads)?;
+    if a.subdivide > 4 {
+        bail!("--subdivide {}: at most 4 (256 triangles per input triangle)", a.subdivide);
+    }
+    let mut scene = input::load(Some(&a.scene), false)?;
+    for _ in 0..a.subdivide {
+        scene.meshes = scene.meshes.iter().map(|m| std::sync::Arc::new(subdivide(m))).collect();
+    }
+    pool.install(|| -> Result<()> {
+        let world = World::new(scene);
+        out!(
+            "scene: {} triangles, {} instances, {} planes; build {:.1} ms; {:.1} bytes of BVH nodes per triangle",
+            world.stats.triangles,
+            world.stats.instances,
+            world.stats.planes,
+            world.stats.build_ms,
+            world.stats.node_bytes as f64 / world.stats.triangles.max(1) as f64
+        );
+        let rays = make_rays(&world, a.kind, a.width, a.height, a.seed);
+        if rays.is_empty() {
+            bail!("no {:?} rays: the camera sees nothing of the scene", a.kind);
+        }
+        let occlusion = a.kind == RayKind::Shadow;
+        let trace = |hits: &mut [f32]| {
+            hits.par_chunks_mut(4096).zip(rays.par_chunks(4096)).for_each(|(h, r)| {
+                for (h, r) in h.iter_mut().zip(r) {
+                    *h = if occlusion {
+                        if world.occluded(r) { 1.0 } else { f32::INFINITY }
+                    } else {
+                        world.hit_distance(r).unwrap_or(f32::INFINITY)
+                    };
+                }
+            })
+        };
+        let mut hits = vec![0.0f32; rays.len()];
+        trace(&mut hits); // warm-up, and the hits that are dumped
+        let mut times = Vec::with_capacity(a.reps);
+        for _ in 0..a.reps {
+            let t0 = Instant::now();
+            trace(&mut hits);
+            times.push(t0.elapsed().as_secs_f64());
+        }
+        let med = median(&mut times);
+        let mrays = rays.len() as f64 / med / 1e6;
+        let hit_count = hits.iter().filter(|h| h.is_finite()).count();
+        out!(
+            "{:?} rays: {} ({} hit), {} threads, median of {} passes {:.2} ms",
+            a.kind,
+            rays.len(),
+            hit_count,
+            rayon::current_num_threads(),
+            a.reps,
+            med * 1e3
+        );
+        if let Some(prefix) = &a.dump {
+            let tris = world.world_triangles();
+            if world.stats.planes > 0 || world.stats.spheres > 0 {
+                eprintln!("glint: note: the dump holds triangles only; spheres and planes are left out");
+            }
+            write_f32s(
+                &with_suffix(prefix, ".tris.f32"),
+                tris.iter().flat_map(|t| t.iter().flat_map(|v| v.to_array())),
+            )?;
+            write_f32s(
+                &with_suffix(prefix, ".rays.f32"),
+                rays.iter()
+                    .flat_map(|r| [r.origin.x, r.origin.y, r.origin.z, r.dir.x, r.dir.y, r.dir.z, r.tmin, r.tmax]),
+            )?;
+            write_f32s(&with_suffix(prefix, ".hits.f32"), hits.iter().copied())?;
+            out!("dumped {} triangles and {} rays to {}.*", tris.len(), rays.len(), prefix.display());
+        }
+        out!("mrays_per_s_median={mrays:.3}");
+        Ok(())
+    })
+}
+
+fn whitted(a: &BenchWhittedArgs) -> Result<()> {
+    if a.frames == 0 {
+        bail!("--frames must be at least 1");
+    }
+    let pool = input::thread_pool(a.threads)?;
+    let scene = match &a.scene {
+        Some(p) => input::load(Some(p), false)?,
+        None => glint_formats::load_scene_str(WHITTED_BENCH_SCENE, Path::new("."), "<whitted-bench.toml>")?.scene,
+    };
+    pool.install(|| -> Result<()> {
+        let world = World::new(scene);
+        let mut settings = RenderSettings::from_defaults(&world.scene.render);
+        settings.width = a.width;
+        settings.height = a.height;
+        settings.schedule = match a.schedule {
+            ScheduleArg::Stealing => Schedule::WorkStealing,
+            ScheduleArg::Static => Schedule::Static,
+        };
+        glint_render::render(&world, &settings)?; // warm-up
+        let mut ms = Vec::new();
+        let mut rays = 0;
+        for _ in 0..a.frames {
+            let (_, stats) = glint_render::render(&world, &settings)?;
+            ms.push(stats.elapsed.as_secs_f64() * 1e3);
+            rays = stats.rays.total();
+        }
+        let med = median(&mut ms);
+        out!(
+            "whitted {}x{}, {} threads, {:?}: median {:.2} ms/frame ({:.1} fps), {:.1} Mrays/s, {} rays/frame",
+            a.width,
+            a.height,
+            rayon::current_num_threads(),
+            settings.schedule,
+            med,
+            1e3 / med,
+            rays as f64 / med / 1e3,
+            rays
+        );
+        out!("ms_per_frame_median={med:.3}");
+        Ok(())
+    })
+}

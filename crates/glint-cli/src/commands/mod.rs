@@ -1,0 +1,15 @@
+//! One module per subcommand.
+
+mod bench;
+mod render;
+
+use crate::cli::{Cli, Command, RenderArgs};
+use anyhow::Result;
+
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        None => render::run(&RenderArgs { output: "glint.png".into(), tonemap: "clamp".into(), ..Default::default() }),
+        Some(Command::Render(args)) => render::run(&args),
+        Some(Command::Bench(b)) => bench::run(b),
+    }
+}

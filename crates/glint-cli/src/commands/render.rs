@@ -1,0 +1,113 @@
+//! `glint render`: load, apply command-line overrides, render, write atomically.
+
+use crate::cli::RenderArgs;
+use crate::input::{self, parse_vec3};
+use crate::progress::LazyProgress;
+use anyhow::{Context, Result, bail};
+use glint_image::{PngOptions, ToneMap};
+use glint_render::{RenderSettings, World};
+use glint_scene::{Camera, Fov, Scene};
+use std::path::Path;
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum OutputKind {
+    Png,
+    Exr,
+}
+
+fn output_kind(path: &Path) -> Result<OutputKind> {
+    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("png") => Ok(OutputKind::Png),
+        Some("exr") => Ok(OutputKind::Exr),
+        _ => bail!("output {}: unsupported image type (use .png or .exr)", path.display()),
+    }
+}
+
+/// Apply size, sampling and camera overrides from the command line.
+pub fn apply_overrides(scene: &mut Scene, args: &RenderArgs) -> Result<()> {
+    if let Some(w) = args.width {
+        scene.render.width = w;
+    }
+    if let Some(h) = args.height {
+        scene.render.height = h;
+    }
+    if let Some(spp) = args.spp {
+        let n = (spp as f64).sqrt().round() as u32;
+        if spp == 0 || n * n != spp {
+            bail!("--spp {spp}: Whitted mode takes N×N stratified samples; use a square number (1, 4, 9, 16, ...)");
+        }
+        scene.render.samples_per_side = n;
+    }
+    if let Some(d) = args.max_depth {
+        scene.render.max_depth = d;
+    }
+    let c = &args.camera;
+    let mut cam: Camera = scene.camera;
+    if let Some(e) = &c.eye {
+        cam.position = parse_vec3("eye", e)?;
+    }
+    if let Some(u) = &c.up {
+        cam.up = parse_vec3("up", u)?;
+    }
+    if let Some(l) = &c.look_at {
+        let target = parse_vec3("look-at", l)?;
+        let d = target - cam.position;
+        if d.length_squared() == 0.0 {
+            bail!("--look-at {l}: the camera cannot look at its own position");
+        }
+        cam.forward = d.normalize();
+    }
+    if let Some(f) = c.fov {
+        cam.fov = Fov::Vertical(f);
+    }
+    scene.camera = cam;
+    scene.validate().context("after applying the command-line options")?;
+    Ok(())
+}
+
+pub fn run(args: &RenderArgs) -> Result<()> {
+    let kind = output_kind(&args.output)?;
+    let tone_map: ToneMap = args
+        .tonemap
+        .parse()
+        .map_err(|_| anyhow::anyhow!("--tonemap {:?}: use clamp, reinhard or aces", args.tonemap))?;
+    if !args.exposure.is_finite() {
+        bail!("--exposure must be a finite number");
+    }
+    let pool = input::thread_pool(args.threads)?;
+    let mut scene = input::load(args.input.as_deref(), args.quiet)?;
+    apply_overrides(&mut scene, args)?;
+    let mut settings = RenderSettings::from_defaults(&scene.render);
+    settings.seed = args.seed;
+
+    let (film, stats, world_stats) = pool.install(|| -> Result<_> {
+        let world = World::new(scene);
+        let progress = LazyProgress::new(settings.height as u64, !args.quiet);
+        let (film, stats) = glint_render::render_with_progress(&world, &settings, &|rows| progress.advance(rows))?;
+        progress.finish();
+        Ok((film, stats, world.stats))
+    })?;
+
+    let image = match kind {
+        OutputKind::Png => film.beauty_image(args.alpha),
+        OutputKind::Exr => film.aov_image(),
+    };
+    let options = PngOptions { exposure: args.exposure, tone_map, alpha: args.alpha };
+    glint_image::write_image(&args.output, &image, &options)
+        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    if !args.quiet {
+        eprintln!(
+            "glint: {}x{} at {} spp in {:.3} s ({:.1} Mrays/s, build {:.1} ms, {} triangles), {} NaN/inf samples dropped -> {}",
+            settings.width,
+            settings.height,
+            settings.samples_per_side * settings.samples_per_side,
+            stats.elapsed.as_secs_f64(),
+            stats.mrays_per_second(),
+            world_stats.build_ms,
+            world_stats.triangles,
+            stats.rejected_samples,
+            args.output.display()
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,50 @@
+//! Loading what the user named: a scene file, a model file, or the built-in demo scene.
+
+use anyhow::{Context, Result, bail};
+use glint_core::Vec3;
+use glint_scene::Scene;
+use std::path::Path;
+
+/// Load a scene or model (the demo scene when `path` is None); warnings go to stderr.
+pub fn load(path: Option<&Path>, quiet: bool) -> Result<Scene> {
+    let loaded = match path {
+        Some(p) => glint_formats::load(p).with_context(|| format!("cannot load {}", p.display()))?,
+        None => glint_formats::load_scene_str(glint_formats::DEMO_SCENE, Path::new("."), "<built-in demo scene>")
+            .context("the built-in demo scene does not load (a bug)")?,
+    };
+    if !quiet {
+        for w in &loaded.warnings {
+            eprintln!("glint: warning: {w}");
+        }
+    }
+    Ok(loaded.scene)
+}
+
+/// Parse "X,Y,Z" into a vector of finite numbers.
+pub fn parse_vec3(flag: &str, text: &str) -> Result<Vec3> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        bail!("--{flag} {text:?}: expected three comma-separated numbers X,Y,Z");
+    }
+    let mut v = [0.0f32; 3];
+    for (slot, p) in v.iter_mut().zip(&parts) {
+        let x: f32 = p.parse().with_context(|| format!("--{flag} {text:?}: {p:?} is not a number"))?;
+        if !x.is_finite() {
+            bail!("--{flag} {text:?}: {p:?} is not a finite number");
+        }
+        *slot = x;
+    }
+    Ok(Vec3::from_array(v))
+}
+
+/// A rayon pool with `threads` workers (all cores when None).
+pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let mut b = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        if n == 0 || n > 1024 {
+            bail!("--threads {n}: must be between 1 and 1024");
+        }
+        b = b.num_threads(n);
+    }
+    b.build().context("cannot start worker threads")
+}

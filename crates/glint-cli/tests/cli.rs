@@ -1,0 +1,159 @@
+//! The `glint` binary end to end: renders, bad input, and the promise that a failed command
+//! never overwrites an existing output file.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)] // test code: a failure is the report
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn glint(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_glint")).args(args).current_dir(dir).output().expect("the binary runs")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("cli-{name}"));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn repo() -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+}
+
+fn shared(rel: &str) -> Option<PathBuf> {
+    let p = repo().join("../shared").join(rel);
+    if p.exists() {
+        Some(p)
+    } else {
+        eprintln!("skipped: {} is not there", p.display());
+        None
+    }
+}
+
+#[test]
+fn no_arguments_render_the_demo_to_glint_png() {
+    let d = scratch("demo");
+    let o = glint(&["render", "--width", "64", "--height", "36", "-q"], &d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = glint_image::read_image(&d.join("glint.png")).unwrap();
+    assert_eq!((img.width, img.height), (64, 36));
+}
+
+#[test]
+fn renders_exr_with_aovs_and_rgba_png() {
+    let d = scratch("exr");
+    let o = glint(&["render", "-o", "out.exr", "--width", "32", "--height", "24", "-q"], &d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = glint_image::read_image(&d.join("out.exr")).unwrap();
+    for c in ["R", "G", "B", "A", "Albedo.R", "Ns.X", "Z"] {
+        assert!(img.channel(c).is_some(), "channel {c} missing");
+    }
+    let o = glint(&["render", "-o", "a.png", "--alpha", "--width", "32", "--height", "24", "-q"], &d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = glint_image::read_image(&d.join("a.png")).unwrap();
+    assert!(img.channel("A").is_some());
+}
+
+#[test]
+fn the_same_render_gives_the_same_exr_file() {
+    let d = scratch("exr-twice");
+    for name in ["a.exr", "b.exr"] {
+        let o =
+            glint(&["render", "-o", name, "--width", "40", "--height", "30", "--spp", "4", "--seed", "3", "-q"], &d);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    assert_eq!(std::fs::read(d.join("a.exr")).unwrap(), std::fs::read(d.join("b.exr")).unwrap());
+}
+
+/// Every failing command: non-zero exit, a message naming the problem, and out.png untouched.
+#[test]
+fn bad_input_fails_cleanly_without_touching_the_output() {
+    let d = scratch("bad");
+    std::fs::write(d.join("out.png"), b"precious").unwrap();
+    std::fs::write(d.join("broken.toml"), "[camera]\nposition = [0, 1, 2]\nbogus = 3\n").unwrap();
+    std::fs::write(d.join("nan.toml"), "[[object]]\ntype = \"sphere\"\ncentre = [nan, 0, 0]\nradius = 1\n").unwrap();
+    std::fs::write(d.join("trunc.ply"), "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n").unwrap();
+    std::fs::write(d.join("huge.ply"), "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n").unwrap();
+    let cases: &[(&[&str], &str)] = &[
+        (&["render", "missing.toml", "-o", "out.png"], "missing.toml"),
+        (&["render", "broken.toml", "-o", "out.png"], "broken.toml"),
+        (&["render", "nan.toml", "-o", "out.png"], "nan.toml"),
+        (&["render", "trunc.ply", "-o", "out.png"], "trunc.ply"),
+        (&["render", "huge.ply", "-o", "out.png"], "huge.ply"),
+        (&["render", "-o", "out.png", "--spp", "5"], "--spp"),
+        (&["render", "-o", "out.png", "--width", "0"], "size"),
+        (&["render", "-o", "out.png", "--width", "100000000"], "size"),
+        (&["render", "-o", "out.png", "--eye", "0,1,nan"], "--eye"),
+        (&["render", "-o", "out.png", "--eye", "1,2"], "--eye"),
+        (&["render", "-o", "out.png", "--eye", "0,0,0", "--look-at", "0,0,0"], "look-at"),
+        (&["render", "-o", "out.png", "--threads", "0"], "--threads"),
+        (&["render", "-o", "out.png", "--tonemap", "filmic"], "tonemap"),
+        (&["render", "-o", "out.tiff"], "out.tiff"),
+        (&["render", "-o", "no/such/dir/out.png", "--width", "8", "--height", "8"], "out.png"),
+    ];
+    for (args, needle) in cases {
+        let o = glint(args, &d);
+        let msg = stderr(&o);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(msg.contains(needle), "{args:?}: message does not name {needle:?}: {msg}");
+        assert!(!msg.contains("panicked"), "{args:?} panicked: {msg}");
+        assert_eq!(std::fs::read(d.join("out.png")).unwrap(), b"precious", "{args:?} touched out.png");
+    }
+}
+
+#[test]
+fn a_model_file_renders_directly() {
+    let Some(bunny) = shared("data/meshes/stanford_bunny_bun_zipper.ply") else { return };
+    let d = scratch("model");
+    let o = glint(&["render", bunny.to_str().unwrap(), "-o", "bunny.png", "--width", "64", "--height", "48", "-q"], &d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = glint_image::read_image(&d.join("bunny.exr").with_extension("png")).unwrap();
+    // The bunny is framed: the centre pixel is the model, not the background.
+    let film =
+        glint(&["render", bunny.to_str().unwrap(), "-o", "bunny.exr", "--width", "64", "--height", "48", "-q"], &d);
+    assert!(film.status.success());
+    let exr = glint_image::read_image(&d.join("bunny.exr")).unwrap();
+    let a = exr.channel("A").unwrap();
+    let covered = a.iter().filter(|&&c| c > 0.0).count();
+    assert!(covered > 64 * 48 / 10, "the model covers only {covered} pixels");
+    assert_eq!((img.width, img.height), (64, 48));
+}
+
+#[test]
+fn bench_rays_dumps_what_it_traced() {
+    let Some(bunny) = shared("data/meshes/stanford_bunny_bun_zipper.ply") else { return };
+    let d = scratch("bench");
+    for kind in ["primary", "diffuse", "shadow"] {
+        let o = glint(
+            &[
+                "bench",
+                "rays",
+                "--scene",
+                bunny.to_str().unwrap(),
+                "--kind",
+                kind,
+                "--width",
+                "64",
+                "--height",
+                "48",
+                "--reps",
+                "1",
+                "--dump",
+                "dump",
+            ],
+            &d,
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert!(out.lines().last().unwrap().starts_with("mrays_per_s_median="), "{out}");
+        let rays = std::fs::metadata(d.join("dump.rays.f32")).unwrap().len();
+        let hits = std::fs::metadata(d.join("dump.hits.f32")).unwrap().len();
+        assert_eq!(rays, hits * 8, "{kind}: 8 floats per ray, 1 per hit");
+        assert_eq!(std::fs::metadata(d.join("dump.tris.f32")).unwrap().len() % 36, 0);
+    }
+}

@@ -1,0 +1,78 @@
+//! The film: linear HDR beauty plus AOVs (normal, depth, albedo, coverage), one record per pixel
+//! so that a band of rows is one contiguous slice a thread can own.
+
+use glint_core::{Rgb, Vec3};
+use glint_image::Image;
+
+/// What one pixel accumulated. Colour is the box-filtered average of its samples; normal and
+/// albedo average over the samples that hit a surface, depth too (linear eye-space distance
+/// along the view axis, +inf where no sample hit); coverage is the fraction of samples that hit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FilmPixel {
+    pub colour: Rgb,
+    pub normal: Vec3,
+    pub albedo: Rgb,
+    pub depth: f32,
+    pub coverage: f32,
+}
+
+impl Default for FilmPixel {
+    fn default() -> Self {
+        Self { colour: Rgb::ZERO, normal: Vec3::ZERO, albedo: Rgb::ZERO, depth: f32::INFINITY, coverage: 0.0 }
+    }
+}
+
+/// A named channel and how to read it from a pixel.
+type ChannelReader = (&'static str, fn(&FilmPixel) -> f32);
+
+#[derive(Clone, Debug)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<FilmPixel>,
+}
+
+impl Film {
+    pub fn new(width: u32, height: u32) -> Self {
+        Self { width, height, pixels: vec![FilmPixel::default(); width as usize * height as usize] }
+    }
+
+    pub fn pixel(&self, x: u32, y: u32) -> &FilmPixel {
+        &self.pixels[y as usize * self.width as usize + x as usize]
+    }
+
+    /// Beauty only, as channels R, G, B (and A = coverage when `alpha`).
+    pub fn beauty_image(&self, alpha: bool) -> Image {
+        let mut img = Image::new(self.width, self.height);
+        let chans: [ChannelReader; 3] = [("R", |p| p.colour.x), ("G", |p| p.colour.y), ("B", |p| p.colour.z)];
+        for (name, f) in chans {
+            img.channels.push(glint_image::Channel { name: name.into(), data: self.pixels.iter().map(f).collect() });
+        }
+        if alpha {
+            img.channels.push(glint_image::Channel {
+                name: "A".into(),
+                data: self.pixels.iter().map(|p| p.coverage).collect(),
+            });
+        }
+        img
+    }
+
+    /// Beauty and every AOV as named channels (EXR names: pbrt-v4's where it has them):
+    /// R G B A, Albedo.R/G/B, Ns.X/Y/Z, Z.
+    pub fn aov_image(&self) -> Image {
+        let mut img = self.beauty_image(true);
+        let chans: [ChannelReader; 7] = [
+            ("Albedo.R", |p| p.albedo.x),
+            ("Albedo.G", |p| p.albedo.y),
+            ("Albedo.B", |p| p.albedo.z),
+            ("Ns.X", |p| p.normal.x),
+            ("Ns.Y", |p| p.normal.y),
+            ("Ns.Z", |p| p.normal.z),
+            ("Z", |p| p.depth),
+        ];
+        for (name, f) in chans {
+            img.channels.push(glint_image::Channel { name: name.into(), data: self.pixels.iter().map(f).collect() });
+        }
+        img
+    }
+}

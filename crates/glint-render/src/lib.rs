@@ -1,0 +1,21 @@
+//! glint-render: scene + acceleration structure → pixels.
+//!
+//! [`World`] turns a validated `Scene` into traceable geometry (a BVH per mesh, a top-level BVH
+//! over object instances, planes beside it) and answers "what does this ray hit" with everything
+//! shading needs. The driver ([`render`]) runs an integrator over the image in parallel and fills
+//! a [`Film`] (beauty + AOVs). The modes live in their own folders: `whitted/` now; `path/` and
+//! `points/` come with their issues.
+#![forbid(unsafe_code)]
+
+pub mod driver;
+pub mod error;
+pub mod film;
+pub mod settings;
+pub mod whitted;
+pub mod world;
+
+pub use driver::{RenderStats, render, render_with_progress};
+pub use error::RenderError;
+pub use film::{Film, FilmPixel};
+pub use settings::{RenderSettings, Schedule};
+pub use world::{SurfaceHit, World};

@@ -1,0 +1,164 @@
+//! Whitted ray tracing (DESIGN.md §1; the thesis's backward ray tracer).
+//!
+//! At the nearest hit: Phong local shading with one shadow ray per light (attenuated through
+//! transparent occluders), plus a reflected and a refracted ray, combined as
+//! `I = I_local + K_refl I_refl + K_refr I_refr`. The tree of rays is walked with an explicit
+//! stack, never by recursion; a branch stops at the maximum depth or when its accumulated weight
+//! falls under the contribution threshold. Rays that leave the scene return the sky.
+
+pub mod optics;
+
+use crate::world::{SurfaceHit, World};
+use glint_core::{Ray, Rgb, Vec3};
+use optics::{fresnel_dielectric, reflect, refract};
+
+/// Counts of rays traced, by kind.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RayCounts {
+    pub primary: u64,
+    pub secondary: u64,
+    pub shadow: u64,
+}
+
+impl RayCounts {
+    pub fn total(&self) -> u64 {
+        self.primary + self.secondary + self.shadow
+    }
+
+    pub fn add(&mut self, o: &RayCounts) {
+        self.primary += o.primary;
+        self.secondary += o.secondary;
+        self.shadow += o.shadow;
+    }
+}
+
+/// What the primary ray saw first (for the AOVs).
+#[derive(Clone, Copy, Debug)]
+pub struct FirstHit {
+    pub normal: Vec3,
+    pub albedo: Rgb,
+    pub position: Vec3,
+}
+
+#[derive(Clone, Copy)]
+struct Branch {
+    ray: Ray,
+    weight: Rgb,
+    depth: u32,
+}
+
+/// Reusable per-thread state (the branch stack).
+#[derive(Default)]
+pub struct Tracer {
+    stack: Vec<Branch>,
+    pub counts: RayCounts,
+}
+
+pub struct WhittedParams {
+    pub max_depth: u32,
+    pub min_contribution: f32,
+}
+
+impl Tracer {
+    /// Radiance along a primary ray, and its first hit.
+    pub fn trace(&mut self, world: &World, ray: Ray, params: &WhittedParams) -> (Rgb, Option<FirstHit>) {
+        let mut colour = Rgb::ZERO;
+        let mut first = None;
+        self.stack.clear();
+        self.stack.push(Branch { ray, weight: Rgb::ONE, depth: 0 });
+        while let Some(b) = self.stack.pop() {
+            if b.depth == 0 {
+                self.counts.primary += 1;
+            } else {
+                self.counts.secondary += 1;
+            }
+            let Some(hit) = world.intersect(&b.ray) else {
+                colour += b.weight * world.sky().radiance(b.ray.dir.normalize_or(Vec3::Z));
+                continue;
+            };
+            let m = world.material(hit.material);
+            let albedo = world.albedo(&hit);
+            let wo = -b.ray.dir.normalize_or(Vec3::Z);
+            // Orient the normals toward the side the ray came from.
+            let entering = hit.geometric_normal.dot(wo) >= 0.0;
+            let (ng, ns) = if entering {
+                (hit.geometric_normal, hit.shading_normal)
+            } else {
+                (-hit.geometric_normal, -hit.shading_normal)
+            };
+            if b.depth == 0 {
+                first = Some(FirstHit { normal: ns, albedo, position: hit.position });
+            }
+            let local = self.local(world, &hit, m, albedo, wo, ng, ns);
+            colour += b.weight * local * (1.0 - m.transparency);
+
+            if b.depth >= params.max_depth {
+                continue;
+            }
+            // Reflection and refraction weights.
+            let cos_o = ns.dot(wo).clamp(0.0, 1.0);
+            let (mut k_refl, mut k_refr) = (m.reflectivity, m.transparency);
+            let (eta_i, eta_t) = if entering { (1.0, m.ior) } else { (m.ior, 1.0) };
+            let refracted = if m.is_transparent() { refract(-wo, ns, eta_i / eta_t) } else { None };
+            if m.is_transparent() && m.fresnel {
+                let f = match refracted {
+                    Some(_) => fresnel_dielectric(cos_o, eta_i, eta_t),
+                    None => 1.0, // total internal reflection
+                };
+                k_refl = (m.reflectivity + m.transparency * f).min(1.0);
+                k_refr = m.transparency * (1.0 - f);
+            } else if m.is_transparent() && refracted.is_none() {
+                k_refl = (k_refl + k_refr).min(1.0);
+                k_refr = 0.0;
+            }
+            let push = |stack: &mut Vec<Branch>, dir: Vec3, k: f32| {
+                let weight = b.weight * k;
+                if k > 0.0 && weight.max_element() > params.min_contribution {
+                    stack.push(Branch { ray: hit.spawn_ray(dir), weight, depth: b.depth + 1 });
+                }
+            };
+            push(&mut self.stack, reflect(-wo, ns), k_refl);
+            if let Some(t) = refracted {
+                push(&mut self.stack, t, k_refr);
+            }
+        }
+        (colour, first)
+    }
+
+    /// Phong: `K_a I_a + Σ visible lights (K_d I max(0, L·N) + K_s I max(0, R·V)^n)` plus emission.
+    #[allow(clippy::too_many_arguments)]
+    fn local(
+        &mut self,
+        world: &World,
+        hit: &SurfaceHit,
+        m: &glint_scene::Material,
+        albedo: Rgb,
+        wo: Vec3,
+        ng: Vec3,
+        ns: Vec3,
+    ) -> Rgb {
+        let mut c = m.emission + world.scene.ambient * albedo * m.ambient;
+        for light in &world.scene.lights {
+            let Some(ls) = light.sample_at(hit.position) else { continue };
+            let cos_l = ns.dot(ls.wi);
+            // Lights below the geometric surface are not seen, whatever the shading normal says.
+            if cos_l <= 0.0 || ng.dot(ls.wi) <= 0.0 {
+                continue;
+            }
+            let shadow = if ls.distance.is_finite() {
+                hit.spawn_ray_to(hit.position + ls.wi * ls.distance)
+            } else {
+                hit.spawn_ray(ls.wi)
+            };
+            self.counts.shadow += 1;
+            let vis = world.transmittance(&shadow);
+            if vis == Rgb::ZERO {
+                continue;
+            }
+            let r = reflect(-ls.wi, ns);
+            let spec = if m.specular > 0.0 { r.dot(wo).max(0.0).powf(m.shininess) * m.specular } else { 0.0 };
+            c += vis * ls.radiance * (albedo * (m.diffuse * cos_l) + Rgb::splat(spec));
+        }
+        c
+    }
+}

@@ -1,0 +1,491 @@
+//! The traceable world: a scene's geometry in a two-level BVH.
+//!
+//! Every bounded object is an *instance*: a shape in object space (a sphere, or a mesh with its
+//! own BVH) and an affine placement. A top-level BVH over the instances' world boxes is rebuilt
+//! when an object moves (cheap: one box per object); a mesh whose vertices move is refitted.
+//! Nothing else is rebuilt (the two-level scheme of Wald et al. 2003 that the path-tracing paper
+//! uses). Infinite planes cannot live in a BVH and are tested beside it.
+//!
+//! Hit points carry a conservative bound on their floating-point error (pbrt §3.9) so that
+//! spawned rays start just outside it: no fixed epsilon, correct at every scale.
+
+use glint_accel::{BuildOptions, MeshBvh, Tlas, primitives};
+use glint_core::float::gamma;
+use glint_core::{Affine3A, Bounds3, Mat3, Ray, Rgb, Vec2, Vec3, float::offset_ray_origin};
+use glint_scene::{Material, Mesh, Scene, Shape, Sky, Texture};
+use rayon::prelude::*;
+use std::sync::Arc;
+
+#[derive(Clone, Copy, Debug)]
+enum InstanceShape {
+    Sphere { centre: Vec3, radius: f32 },
+    Mesh(usize),
+}
+
+#[derive(Clone, Debug)]
+struct Instance {
+    shape: InstanceShape,
+    object: u32,
+    material: u32,
+    world_from_object: Affine3A,
+    object_from_world: Affine3A,
+    /// Inverse transpose of the linear part, for normals.
+    normal_from_object: Mat3,
+    identity: bool,
+    /// Every surface of this instance is opaque (shadow rays may stop at its first hit).
+    opaque: bool,
+}
+
+impl Instance {
+    fn new(shape: InstanceShape, object: u32, material: u32, world_from_object: Affine3A, opaque: bool) -> Self {
+        let identity = world_from_object == Affine3A::IDENTITY;
+        Self {
+            shape,
+            object,
+            material,
+            opaque,
+            world_from_object,
+            object_from_world: world_from_object.inverse(),
+            normal_from_object: Mat3::from(world_from_object.matrix3).inverse().transpose(),
+            identity,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Plane {
+    normal: Vec3,
+    offset: f32,
+    object: u32,
+    material: u32,
+    opaque: bool,
+}
+
+#[derive(Clone, Copy)]
+enum Found {
+    None,
+    Instance { inst: u32, prim: u32, u: f32, v: f32 },
+    Plane(usize),
+}
+
+/// Everything shading needs about a ray's closest hit.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceHit {
+    pub t: f32,
+    pub position: Vec3,
+    /// Conservative absolute error bound of `position`, per axis.
+    pub p_error: Vec3,
+    /// Unit geometric normal as the geometry orients it (outward for spheres; by winding for
+    /// triangles), not flipped toward the ray.
+    pub geometric_normal: Vec3,
+    /// Unit shading normal (interpolated vertex normals), in the hemisphere of `geometric_normal`.
+    pub shading_normal: Vec3,
+    pub uv: Vec2,
+    pub material: u32,
+    pub object: u32,
+}
+
+impl SurfaceHit {
+    /// A ray leaving the surface in direction `dir`, starting outside the error bound on the
+    /// side `dir` points to.
+    #[inline]
+    pub fn spawn_ray(&self, dir: Vec3) -> Ray {
+        Ray::new(offset_ray_origin(self.position, self.p_error, self.geometric_normal, dir), dir)
+    }
+
+    /// A shadow ray toward `target`: unit direction, `tmax` just short of the target.
+    #[inline]
+    pub fn spawn_ray_to(&self, target: Vec3) -> Ray {
+        let dir0 = target - self.position;
+        let origin = offset_ray_origin(self.position, self.p_error, self.geometric_normal, dir0);
+        let d = target - origin;
+        let dist = d.length();
+        Ray::segment(origin, d / dist, 0.0, dist * (1.0 - 1e-4))
+    }
+}
+
+/// Statistics of the acceleration structures (reported by the CLI and benchmarks).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WorldStats {
+    pub triangles: usize,
+    pub instances: usize,
+    pub spheres: usize,
+    pub planes: usize,
+    pub node_bytes: usize,
+    pub build_ms: f64,
+}
+
+/// A scene made traceable.
+pub struct World {
+    pub scene: Scene,
+    meshes: Vec<Arc<Mesh>>,
+    blas: Vec<MeshBvh>,
+    instances: Vec<Instance>,
+    tlas: Tlas,
+    planes: Vec<Plane>,
+    /// Instance index of each object (None for planes).
+    instance_of_object: Vec<Option<usize>>,
+    any_transparent: bool,
+    pub stats: WorldStats,
+}
+
+fn instance_bounds(inst: &Instance, blas: &[MeshBvh]) -> Bounds3 {
+    let local = match inst.shape {
+        InstanceShape::Sphere { centre, radius } => {
+            Bounds3::new(centre - Vec3::splat(radius), centre + Vec3::splat(radius))
+        }
+        InstanceShape::Mesh(m) => blas[m].bounds(),
+    };
+    if inst.identity { local } else { local.transformed(&inst.world_from_object) }
+}
+
+impl World {
+    /// Build the acceleration structures of a validated scene (meshes in parallel).
+    pub fn new(scene: Scene) -> Self {
+        let start = std::time::Instant::now();
+        let options = BuildOptions::default();
+        let meshes = scene.meshes.clone();
+        let blas: Vec<MeshBvh> =
+            meshes.par_iter().map(|m| MeshBvh::build(&m.positions, &m.triangles, &options)).collect();
+        let transparent = |m: usize| scene.materials[m].is_transparent();
+        let mesh_opaque = |mesh: usize, object_material: usize| match &meshes[mesh].triangle_materials {
+            Some(ms) => ms.iter().all(|&m| !transparent(m as usize)),
+            None => !transparent(object_material),
+        };
+        let mut instances = Vec::new();
+        let mut planes = Vec::new();
+        let mut instance_of_object = Vec::with_capacity(scene.objects.len());
+        for (i, o) in scene.objects.iter().enumerate() {
+            let (object, material) = (i as u32, o.material as u32);
+            match o.shape {
+                Shape::Plane { normal, offset } => {
+                    planes.push(Plane { normal, offset, object, material, opaque: !transparent(o.material) });
+                    instance_of_object.push(None);
+                }
+                Shape::Sphere { centre, radius } => {
+                    instance_of_object.push(Some(instances.len()));
+                    instances.push(Instance::new(
+                        InstanceShape::Sphere { centre, radius },
+                        object,
+                        material,
+                        o.world_from_object,
+                        !transparent(o.material),
+                    ));
+                }
+                Shape::Mesh(m) => {
+                    instance_of_object.push(Some(instances.len()));
+                    let opaque = mesh_opaque(m, o.material);
+                    instances.push(Instance::new(
+                        InstanceShape::Mesh(m),
+                        object,
+                        material,
+                        o.world_from_object,
+                        opaque,
+                    ));
+                }
+            }
+        }
+        let boxes: Vec<Bounds3> = instances.iter().map(|inst| instance_bounds(inst, &blas)).collect();
+        let tlas = Tlas::build(&boxes);
+        let any_transparent = scene.materials.iter().any(Material::is_transparent);
+        let stats = WorldStats {
+            triangles: meshes.iter().map(|m| m.triangles.len()).sum(),
+            instances: instances.len(),
+            spheres: instances.iter().filter(|i| matches!(i.shape, InstanceShape::Sphere { .. })).count(),
+            planes: planes.len(),
+            node_bytes: blas.iter().map(|b| b.stats().node_bytes).sum(),
+            build_ms: start.elapsed().as_secs_f64() * 1e3,
+        };
+        Self { scene, meshes, blas, instances, tlas, planes, instance_of_object, any_transparent, stats }
+    }
+
+    /// Move object `object` (not a plane): only the top level is rebuilt.
+    pub fn set_transform(&mut self, object: usize, world_from_object: Affine3A) -> bool {
+        let Some(Some(i)) = self.instance_of_object.get(object).copied() else { return false };
+        let inst = &self.instances[i];
+        self.instances[i] = Instance::new(inst.shape, inst.object, inst.material, world_from_object, inst.opaque);
+        self.scene.objects[object].world_from_object = world_from_object;
+        self.rebuild_top_level();
+        true
+    }
+
+    /// New vertex positions for mesh `mesh` (same triangles): its BVH is refitted, not rebuilt.
+    pub fn update_mesh_positions(&mut self, mesh: usize, positions: Vec<Vec3>) -> bool {
+        let Some(m) = self.meshes.get(mesh) else { return false };
+        if positions.len() != m.positions.len() || positions.iter().any(|p| !p.is_finite()) {
+            return false;
+        }
+        let mut new_mesh = (**m).clone();
+        new_mesh.positions = positions;
+        self.blas[mesh].refit(&new_mesh.positions);
+        let new_mesh = Arc::new(new_mesh);
+        self.meshes[mesh] = new_mesh.clone();
+        self.scene.meshes[mesh] = new_mesh;
+        self.rebuild_top_level();
+        true
+    }
+
+    fn rebuild_top_level(&mut self) {
+        let boxes: Vec<Bounds3> = self.instances.iter().map(|inst| instance_bounds(inst, &self.blas)).collect();
+        self.tlas = Tlas::build(&boxes);
+    }
+
+    pub fn sky(&self) -> &Sky {
+        &self.scene.sky
+    }
+
+    pub fn material(&self, index: u32) -> &Material {
+        &self.scene.materials[index as usize]
+    }
+
+    /// The surface colour at a hit: material colour × texture.
+    #[inline]
+    pub fn albedo(&self, hit: &SurfaceHit) -> Rgb {
+        let m = self.material(hit.material);
+        match m.texture {
+            Some(t) => m.colour * evaluate_texture(&self.scene.textures[t], hit.uv),
+            None => m.colour,
+        }
+    }
+
+    /// Closest hit along `ray` within `[ray.tmin, ray.tmax]`.
+    pub fn intersect(&self, ray: &Ray) -> Option<SurfaceHit> {
+        let (found, t) = self.closest(ray, false);
+        self.surface_hit(ray, found, t)
+    }
+
+    fn surface_hit(&self, ray: &Ray, found: Found, t: f32) -> Option<SurfaceHit> {
+        match found {
+            Found::None => None,
+            Found::Plane(pi) => Some(self.plane_hit(&self.planes[pi], ray, t)),
+            Found::Instance { inst, prim, u, v } => {
+                Some(self.instance_hit(&self.instances[inst as usize], ray, t, prim, u, v))
+            }
+        }
+    }
+
+    /// Distance to the closest hit, without computing shading data (traversal only: what the
+    /// ray benchmarks time).
+    pub fn hit_distance(&self, ray: &Ray) -> Option<f32> {
+        match self.closest(ray, false) {
+            (Found::None, _) => None,
+            (_, t) => Some(t),
+        }
+    }
+
+    /// Closest hit; with `transparent_only`, instances and planes that are wholly opaque are
+    /// skipped (used after an any-hit query has ruled them out).
+    fn closest(&self, ray: &Ray, transparent_only: bool) -> (Found, f32) {
+        let mut found = Found::None;
+        let mut tmax = ray.tmax;
+        self.tlas.intersect(ray, |i, t_limit| {
+            let inst = &self.instances[i as usize];
+            if transparent_only && inst.opaque {
+                return None;
+            }
+            let mut r = if inst.identity { *ray } else { transform_ray(&inst.object_from_world, ray) };
+            r.tmax = t_limit;
+            match inst.shape {
+                InstanceShape::Sphere { centre, radius } => {
+                    let t = primitives::intersect_sphere(&r, centre, radius)?;
+                    found = Found::Instance { inst: i, prim: 0, u: 0.0, v: 0.0 };
+                    tmax = t;
+                    Some(t)
+                }
+                InstanceShape::Mesh(m) => {
+                    let h = self.blas[m].intersect(&r)?;
+                    found = Found::Instance { inst: i, prim: h.prim, u: h.u, v: h.v };
+                    tmax = h.t;
+                    Some(h.t)
+                }
+            }
+        });
+        for (pi, p) in self.planes.iter().enumerate() {
+            if transparent_only && p.opaque {
+                continue;
+            }
+            let r = Ray { tmax, ..*ray };
+            if let Some(t) = primitives::intersect_plane(&r, p.normal, p.offset) {
+                tmax = t;
+                found = Found::Plane(pi);
+            }
+        }
+        (found, tmax)
+    }
+
+    /// True when anything blocks `ray` within its interval (opaque or not).
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.occluded_filtered(ray, false)
+    }
+
+    /// Any hit; with `opaque_only`, only surfaces that are wholly opaque count.
+    fn occluded_filtered(&self, ray: &Ray, opaque_only: bool) -> bool {
+        for p in &self.planes {
+            if (!opaque_only || p.opaque) && primitives::intersect_plane(ray, p.normal, p.offset).is_some() {
+                return true;
+            }
+        }
+        self.tlas.occluded(ray, |i| {
+            let inst = &self.instances[i as usize];
+            if opaque_only && !inst.opaque {
+                return false;
+            }
+            let r = if inst.identity { *ray } else { transform_ray(&inst.object_from_world, ray) };
+            match inst.shape {
+                InstanceShape::Sphere { centre, radius } => primitives::intersect_sphere(&r, centre, radius).is_some(),
+                InstanceShape::Mesh(m) => self.blas[m].occluded(&r),
+            }
+        })
+    }
+
+    /// Fraction of light that passes along a shadow ray: 0 behind an opaque object, reduced by
+    /// each transparent surface it crosses ("reduced according to the degree of transparency").
+    pub fn transmittance(&self, ray: &Ray) -> Rgb {
+        if !self.any_transparent {
+            return if self.occluded(ray) { Rgb::ZERO } else { Rgb::ONE };
+        }
+        // Any opaque surface on the way blocks everything: the cheap any-hit query first.
+        if self.occluded_filtered(ray, true) {
+            return Rgb::ZERO;
+        }
+        // Then the transparent surfaces, in order.
+        let mut t = Rgb::ONE;
+        let mut r = *ray;
+        let end = ray.at(ray.tmax);
+        for _ in 0..32 {
+            let (found, th) = self.closest(&r, true);
+            let Some(hit) = self.surface_hit(&r, found, th) else { return t };
+            let m = self.material(hit.material);
+            if !m.is_transparent() {
+                return Rgb::ZERO;
+            }
+            t *= m.transparency;
+            if t.max_element() < 1e-4 {
+                return Rgb::ZERO;
+            }
+            let origin = offset_ray_origin(hit.position, hit.p_error, hit.geometric_normal, r.dir);
+            let remaining = (end - origin).dot(r.dir);
+            if remaining <= 0.0 {
+                return t;
+            }
+            r = Ray::segment(origin, r.dir, 0.0, remaining);
+        }
+        t
+    }
+
+    fn plane_hit(&self, p: &Plane, ray: &Ray, t: f32) -> SurfaceHit {
+        let raw = ray.at(t);
+        // Project onto the plane: what remains is error along the normal only.
+        let position = raw - p.normal * (raw.dot(p.normal) + p.offset);
+        let p_error = Vec3::splat(gamma(6) * (position.abs().max_element() + p.offset.abs()));
+        let frame = glint_core::Frame::from_z(p.normal);
+        SurfaceHit {
+            t,
+            position,
+            p_error,
+            geometric_normal: p.normal,
+            shading_normal: p.normal,
+            uv: Vec2::new(position.dot(frame.x), position.dot(frame.y)),
+            material: p.material,
+            object: p.object,
+        }
+    }
+
+    fn instance_hit(&self, inst: &Instance, ray: &Ray, t: f32, prim: u32, u: f32, v: f32) -> SurfaceHit {
+        let r = if inst.identity { *ray } else { transform_ray(&inst.object_from_world, ray) };
+        let (p_obj, err_obj, ng_obj, ns_obj, uv, material) = match inst.shape {
+            InstanceShape::Sphere { centre, radius } => {
+                let local = r.at(t) - centre;
+                let n = local.normalize_or(Vec3::Y);
+                let local = n * radius; // reproject onto the surface
+                let p = centre + local;
+                let err = gamma(5) * local.abs() + gamma(1) * p.abs();
+                // Spherical uv only when a texture will read it (atan2 and acos are not free).
+                let uv = if self.scene.materials[inst.material as usize].texture.is_some() {
+                    Vec2::new(
+                        0.5 + n.x.atan2(-n.z) / std::f32::consts::TAU,
+                        1.0 - n.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI,
+                    )
+                } else {
+                    Vec2::ZERO
+                };
+                (p, err, n, n, uv, inst.material)
+            }
+            InstanceShape::Mesh(m) => {
+                let mesh = &self.meshes[m];
+                let tri = mesh.triangles[prim as usize];
+                let [i0, i1, i2] = tri.map(|i| i as usize);
+                let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
+                let w = 1.0 - u - v;
+                let p = p0 * w + p1 * u + p2 * v;
+                let err = gamma(7) * ((p0 * w).abs() + (p1 * u).abs() + (p2 * v).abs());
+                let ng = (p1 - p0).cross(p2 - p0).normalize_or(Vec3::Y);
+                let ns = match &mesh.normals {
+                    Some(n) => {
+                        let s = (n[i0] * w + n[i1] * u + n[i2] * v).normalize_or(ng);
+                        if s.dot(ng) < 0.0 { -s } else { s }
+                    }
+                    None => ng,
+                };
+                let uv = match &mesh.uvs {
+                    Some(t) => t[i0] * w + t[i1] * u + t[i2] * v,
+                    None => Vec2::ZERO,
+                };
+                let material = match &mesh.triangle_materials {
+                    Some(ms) => ms[prim as usize],
+                    None => inst.material,
+                };
+                (p, err, ng, ns, uv, material)
+            }
+        };
+        let (position, p_error, ng, ns) = if inst.identity {
+            (p_obj, err_obj, ng_obj, ns_obj)
+        } else {
+            let m = &inst.world_from_object;
+            let abs_m = Mat3::from_cols(
+                Vec3::from(m.matrix3.x_axis).abs(),
+                Vec3::from(m.matrix3.y_axis).abs(),
+                Vec3::from(m.matrix3.z_axis).abs(),
+            );
+            let position = m.transform_point3(p_obj);
+            // pbrt's bound for transforming a point that already carries an error.
+            let p_error = (1.0 + gamma(3)) * (abs_m * err_obj)
+                + gamma(3) * (abs_m * p_obj.abs() + Vec3::from(m.translation).abs());
+            let ng = (inst.normal_from_object * ng_obj).normalize_or(Vec3::Y);
+            let ns = (inst.normal_from_object * ns_obj).normalize_or(ng);
+            (position, p_error, ng, ns)
+        };
+        let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
+        SurfaceHit { t, position, p_error, geometric_normal: ng, shading_normal: ns, uv, material, object: inst.object }
+    }
+
+    /// Every triangle of the world in world space (for the Embree comparison dumps).
+    pub fn world_triangles(&self) -> Vec<[Vec3; 3]> {
+        let mut out = Vec::new();
+        for inst in &self.instances {
+            if let InstanceShape::Mesh(m) = inst.shape {
+                let mesh = &self.meshes[m];
+                for t in &mesh.triangles {
+                    out.push(t.map(|i| inst.world_from_object.transform_point3(mesh.positions[i as usize])));
+                }
+            }
+        }
+        out
+    }
+}
+
+#[inline]
+fn evaluate_texture(t: &Texture, uv: Vec2) -> Rgb {
+    t.evaluate(uv)
+}
+
+/// The ray in object space. The direction is not renormalised, so `t` is the same in both spaces.
+#[inline]
+fn transform_ray(object_from_world: &Affine3A, ray: &Ray) -> Ray {
+    Ray {
+        origin: object_from_world.transform_point3(ray.origin),
+        dir: object_from_world.transform_vector3(ray.dir),
+        tmin: ray.tmin,
+        tmax: ray.tmax,
+    }
+}
