@@ -11,6 +11,7 @@
 //! is ignored, which keeps that slab open.
 
 use crate::primitives::{WoopRay, woop};
+use crate::wide::{Entry, Stack};
 use crate::{Hit, fetch_triangle};
 use glint_core::float::gamma;
 use glint_core::{Bounds3, Ray, Vec3};
@@ -169,7 +170,7 @@ impl Bvh2 {
         if br.hit(&self.nodes[0].bounds, ray.tmin, tmax).is_none() {
             return;
         }
-        let mut stack: Vec<(u32, f32)> = Vec::with_capacity(64);
+        let mut stack = Stack::<Entry>::new();
         let mut cur = 0usize;
         loop {
             let node = &self.nodes[cur];
@@ -186,7 +187,7 @@ impl Bvh2 {
                 match (hl, hr) {
                     (Some(a), Some(b)) => {
                         let (near, far, tf) = if a <= b { (l, r, b) } else { (r, l, a) };
-                        stack.push((far as u32, tf));
+                        stack.push(Entry { child: far as u32, t: tf });
                         cur = near;
                         continue;
                     }
@@ -204,8 +205,8 @@ impl Bvh2 {
             loop {
                 match stack.pop() {
                     None => return,
-                    Some((n, t)) if t <= tmax => {
-                        cur = n as usize;
+                    Some(Entry { child, t }) if t <= tmax => {
+                        cur = child as usize;
                         break;
                     }
                     Some(_) => {}
@@ -220,7 +221,7 @@ impl Bvh2 {
             return false;
         }
         let br = BoxRay::new(ray);
-        let mut stack: Vec<u32> = Vec::with_capacity(64);
+        let mut stack = Stack::<u32>::new();
         stack.push(0);
         while let Some(i) = stack.pop() {
             let node = &self.nodes[i as usize];

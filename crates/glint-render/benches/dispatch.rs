@@ -6,10 +6,10 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)] // test code: a failure is the report
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use std::hint::black_box;
 use glint_accel::primitives::{intersect_plane, intersect_sphere, intersect_triangle};
 use glint_core::random::{hash4, unit_float};
 use glint_core::{Ray, Vec3};
+use std::hint::black_box;
 
 #[derive(Clone, Copy)]
 enum Prim {
