@@ -141,6 +141,33 @@ pub fn intersect_triangle(ray: &Ray, p0: Vec3, p1: Vec3, p2: Vec3) -> Option<Tri
 /// Nearest intersection of the ray with the sphere in `(ray.tmin, ray.tmax]`. A ray that starts
 /// inside the sphere gets the far root.
 pub fn intersect_sphere(ray: &Ray, centre: Vec3, radius: f32) -> Option<f32> {
+    let (t0, t1) = sphere_roots(ray, centre, radius)?;
+    if t0 > ray.tmin && t0 <= ray.tmax {
+        Some(t0)
+    } else if t1 > ray.tmin && t1 <= ray.tmax {
+        Some(t1)
+    } else {
+        None
+    }
+}
+
+/// How many times the ray's interval `(tmin, tmax]` crosses the sphere's surface (0, 1 or 2):
+/// what a shadow ray through a transparent sphere is attenuated by.
+#[inline]
+pub fn sphere_crossings(ray: &Ray, centre: Vec3, radius: f32) -> u32 {
+    match sphere_roots(ray, centre, radius) {
+        None => 0,
+        Some((t0, t1)) => {
+            let inside = |t: f32| t > ray.tmin && t <= ray.tmax;
+            inside(t0) as u32 + inside(t1) as u32
+        }
+    }
+}
+
+/// Both roots of the ray–sphere quadratic, ordered, whatever the interval; `None` when the
+/// line misses the sphere.
+#[inline]
+fn sphere_roots(ray: &Ray, centre: Vec3, radius: f32) -> Option<(f32, f32)> {
     let d = ray.dir;
     let f = ray.origin - centre;
     let a = d.dot(d);
@@ -158,14 +185,7 @@ pub fn intersect_sphere(ray: &Ray, centre: Vec3, radius: f32) -> Option<f32> {
     }
     let q = -(b + disc.sqrt().copysign(b));
     let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { (c / q, q / a) };
-    let (t0, t1) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
-    if t0 > ray.tmin && t0 <= ray.tmax {
-        Some(t0)
-    } else if t1 > ray.tmin && t1 <= ray.tmax {
-        Some(t1)
-    } else {
-        None
-    }
+    Some(if t0 <= t1 { (t0, t1) } else { (t1, t0) })
 }
 
 /// Intersection with the plane `p·normal + offset = 0` in `(ray.tmin, ray.tmax]`; no hit when the
@@ -182,6 +202,19 @@ pub fn intersect_plane(ray: &Ray, normal: Vec3, offset: f32) -> Option<f32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sphere_crossings_count_surfaces_in_the_interval() {
+        let c = Vec3::ZERO;
+        let through = Ray::segment(Vec3::new(0.0, 0.0, 5.0), -Vec3::Z, 0.0, 10.0);
+        assert_eq!(sphere_crossings(&through, c, 1.0), 2);
+        let into = Ray::segment(Vec3::new(0.0, 0.0, 5.0), -Vec3::Z, 0.0, 5.0);
+        assert_eq!(sphere_crossings(&into, c, 1.0), 1);
+        let short = Ray::segment(Vec3::new(0.0, 0.0, 5.0), -Vec3::Z, 0.0, 3.0);
+        assert_eq!(sphere_crossings(&short, c, 1.0), 0);
+        let miss = Ray::segment(Vec3::new(0.0, 2.0, 5.0), -Vec3::Z, 0.0, 10.0);
+        assert_eq!(sphere_crossings(&miss, c, 1.0), 0);
+    }
 
     fn tri() -> (Vec3, Vec3, Vec3) {
         (Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0))

@@ -344,15 +344,59 @@ impl World {
         if !self.any_transparent {
             return if self.occluded(ray) { Rgb::ZERO } else { Rgb::ONE };
         }
-        // Any opaque surface on the way blocks everything: the cheap any-hit query first.
+        // One pass: an opaque hit ends it; transparent planes and spheres multiply in the
+        // transmittance of every surface the segment crosses (order does not matter for a
+        // product). Only a transparent mesh needs its hits in order (its triangles may carry
+        // different materials): then the ordered walk below.
+        let mut t = 1.0f32;
+        for p in &self.planes {
+            if primitives::intersect_plane(ray, p.normal, p.offset).is_some() {
+                if p.opaque {
+                    return Rgb::ZERO;
+                }
+                t *= self.material(p.material).transparency;
+            }
+        }
+        let mut walk = false;
+        let blocked = self.tlas.occluded(ray, |i| {
+            let inst = &self.instances[i as usize];
+            let r = if inst.identity { *ray } else { transform_ray(&inst.object_from_world, ray) };
+            match inst.shape {
+                InstanceShape::Sphere { centre, radius } => {
+                    let n = primitives::sphere_crossings(&r, centre, radius);
+                    if n > 0 && !inst.opaque {
+                        t *= self.material(inst.material).transparency.powi(n as i32);
+                    }
+                    n > 0 && inst.opaque
+                }
+                InstanceShape::Mesh(m) => {
+                    if inst.opaque {
+                        self.blas[m].occluded(&r)
+                    } else {
+                        walk |= self.blas[m].occluded(&r);
+                        false
+                    }
+                }
+            }
+        });
+        if blocked || t < 1e-4 {
+            return Rgb::ZERO;
+        }
+        if !walk {
+            return Rgb::splat(t);
+        }
+        self.transmittance_ordered(ray)
+    }
+
+    /// The general case: walk the transparent surfaces along the ray in order.
+    fn transmittance_ordered(&self, ray: &Ray) -> Rgb {
         if self.occluded_filtered(ray, true) {
             return Rgb::ZERO;
         }
-        // Then the transparent surfaces, in order.
         let mut t = Rgb::ONE;
         let mut r = *ray;
         let end = ray.at(ray.tmax);
-        for _ in 0..32 {
+        for _ in 0..64 {
             let (found, th) = self.closest(&r, true);
             let Some(hit) = self.surface_hit(&r, found, th) else { return t };
             let m = self.material(hit.material);

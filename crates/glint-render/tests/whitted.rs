@@ -351,3 +351,47 @@ fn impossible_settings_are_errors_not_panics() {
         assert!(glint_render::render(&world, &s).is_err());
     }
 }
+
+/// Transparent meshes take the ordered walk; a slab (two surfaces) of transparency 0.5 passes
+/// a quarter, a slab whose far face is opaque (per-triangle material) passes nothing, and a
+/// transparent sphere in the same scene multiplies in.
+#[test]
+fn shadow_rays_walk_transparent_meshes_in_order() {
+    let slab = |opaque_back: bool| Mesh {
+        name: "slab".into(),
+        positions: vec![
+            Vec3::new(-1.0, 2.0, -1.0),
+            Vec3::new(1.0, 2.0, -1.0),
+            Vec3::new(1.0, 2.0, 1.0),
+            Vec3::new(-1.0, 2.0, 1.0),
+            Vec3::new(-1.0, 1.5, -1.0),
+            Vec3::new(1.0, 1.5, -1.0),
+            Vec3::new(1.0, 1.5, 1.0),
+            Vec3::new(-1.0, 1.5, 1.0),
+        ],
+        triangles: vec![[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7]],
+        triangle_materials: Some(if opaque_back { vec![1, 1, 0, 0] } else { vec![1, 1, 1, 1] }),
+        ..Mesh::default()
+    };
+    let make = |opaque_back: bool, with_ball: bool| {
+        let mut objects =
+            vec![object("floor", Shape::Plane { normal: Vec3::Y, offset: 0.0 }, 0), object("slab", Shape::Mesh(0), 1)];
+        if with_ball {
+            objects.push(object("ball", Shape::Sphere { centre: Vec3::new(0.0, 3.0, 0.0), radius: 0.3 }, 1));
+        }
+        let scene = Scene {
+            materials: vec![matte(Rgb::ONE), Material { transparency: 0.5, fresnel: false, ..matte(Rgb::ONE) }],
+            meshes: vec![Arc::new(slab(opaque_back))],
+            objects,
+            ..Scene::default()
+        };
+        scene.validate().unwrap();
+        World::new(scene)
+    };
+    let shadow = Ray::segment(Vec3::new(0.0, 1e-3, 0.0), Vec3::Y, 0.0, 3.999);
+    let t = make(false, false).transmittance(&shadow);
+    assert!((t - Rgb::splat(0.25)).abs().max_element() < 1e-6, "{t}");
+    assert_eq!(make(true, false).transmittance(&shadow), Rgb::ZERO);
+    let t = make(false, true).transmittance(&shadow);
+    assert!((t - Rgb::splat(0.0625)).abs().max_element() < 1e-6, "{t}");
+}
