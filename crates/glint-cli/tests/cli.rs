@@ -88,6 +88,7 @@ fn bad_input_fails_cleanly_without_touching_the_output() {
         (&["render", "-o", "out.png", "--spp", "5"], "--spp"),
         (&["render", "-o", "out.png", "--width", "0"], "size"),
         (&["render", "-o", "out.png", "--width", "100000000"], "size"),
+        (&["render", "-o", "out.png", "--width", "30000", "--height", "30000"], "size"),
         (&["render", "-o", "out.png", "--eye", "0,1,nan"], "--eye"),
         (&["render", "-o", "out.png", "--eye", "1,2"], "--eye"),
         (&["render", "-o", "out.png", "--eye", "0,0,0", "--look-at", "0,0,0"], "look-at"),

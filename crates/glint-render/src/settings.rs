@@ -1,7 +1,8 @@
 //! Render settings: the scene file's defaults, overridden by the command line.
 
 use crate::RenderError;
-use glint_scene::{RenderDefaults, scene::MAX_IMAGE_SIDE};
+use glint_scene::RenderDefaults;
+use glint_scene::scene::{MAX_IMAGE_SIDE, image_size_ok};
 
 /// How image bands are handed to threads (the thesis compares OpenMP-style static splits with
 /// TBB-style work stealing; rayon is the latter).
@@ -44,9 +45,9 @@ impl RenderSettings {
     }
 
     pub fn validate(&self) -> Result<(), RenderError> {
-        if self.width == 0 || self.height == 0 || self.width > MAX_IMAGE_SIDE || self.height > MAX_IMAGE_SIDE {
+        if !image_size_ok(self.width, self.height) {
             return Err(RenderError::InvalidSetting(format!(
-                "image size {}x{} (each side must be 1..={MAX_IMAGE_SIDE})",
+                "image size {}x{} (each side must be 1..={MAX_IMAGE_SIDE}, at most 2^27 pixels in all)",
                 self.width, self.height
             )));
         }

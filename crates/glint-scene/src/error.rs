@@ -10,7 +10,7 @@ pub enum SceneError {
     BadReference { what: String, kind: &'static str, index: usize, count: usize },
     #[error("the scene is empty: it has no object to render")]
     Empty,
-    #[error("image size {width}x{height} is impossible (each side must be 1..={max})")]
+    #[error("image size {width}x{height} is impossible (each side must be 1..={max}, at most 2^27 pixels in all)")]
     ImageSize { width: u32, height: u32, max: u32 },
 }
 

@@ -4,8 +4,20 @@ use crate::{Camera, Light, Material, Mesh, Object, SceneError, Shape, Sky, Textu
 use glint_core::{Bounds3, Rgb, Vec3};
 use std::sync::Arc;
 
-/// Largest image side accepted (a 65536² RGBA f32 film would already be 64 GiB).
+/// Largest image side accepted.
 pub const MAX_IMAGE_SIDE: u32 = 32_768;
+/// Most pixels accepted in one image (2^27, e.g. 16384 × 8192: a film of about 6 GB; the PNG
+/// and EXR writers share the limit).
+pub const MAX_IMAGE_PIXELS: u64 = 1 << 27;
+
+/// Whether a `width × height` image is within the limits.
+pub fn image_size_ok(width: u32, height: u32) -> bool {
+    width > 0
+        && height > 0
+        && width <= MAX_IMAGE_SIDE
+        && height <= MAX_IMAGE_SIDE
+        && width as u64 * height as u64 <= MAX_IMAGE_PIXELS
+}
 
 /// Render settings a scene file may give; the CLI overrides them.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -68,7 +80,7 @@ impl Scene {
     /// coordinate, a dangling index or an impossible size.
     pub fn validate(&self) -> Result<(), SceneError> {
         let r = &self.render;
-        if r.width == 0 || r.height == 0 || r.width > MAX_IMAGE_SIDE || r.height > MAX_IMAGE_SIDE {
+        if !image_size_ok(r.width, r.height) {
             return Err(SceneError::ImageSize { width: r.width, height: r.height, max: MAX_IMAGE_SIDE });
         }
         if r.samples_per_side == 0 || r.samples_per_side > 64 {

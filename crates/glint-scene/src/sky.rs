@@ -18,17 +18,15 @@ impl Default for Sky {
 }
 
 impl Sky {
-    /// Radiance arriving from direction `dir` (unit), i.e. seen by a ray travelling along `dir`.
+    /// Radiance arriving from direction `dir` (any length), i.e. seen by a ray travelling
+    /// along `dir`.
     #[inline]
     pub fn radiance(&self, dir: Vec3) -> Rgb {
         match self {
             Sky::Colour(c) => *c,
             Sky::Gradient { zenith, horizon, ground } => {
-                if dir.y >= 0.0 {
-                    horizon.lerp(*zenith, dir.y.min(1.0))
-                } else {
-                    *ground
-                }
+                let y = dir.normalize_or(Vec3::Y).y;
+                if y >= 0.0 { horizon.lerp(*zenith, y.min(1.0)) } else { *ground }
             }
         }
     }

@@ -73,12 +73,14 @@ impl Tracer {
                 self.counts.secondary += 1;
             }
             let Some(hit) = world.intersect(&b.ray) else {
-                colour += b.weight * world.sky().radiance(b.ray.dir.normalize_or(Vec3::Z));
+                colour += b.weight * world.sky().radiance(b.ray.dir);
                 continue;
             };
             let m = world.material(hit.material);
             let albedo = world.albedo(&hit);
-            let wo = -b.ray.dir.normalize_or(Vec3::Z);
+            // Every ray direction here is unit length (camera rays are normalised, reflection
+            // preserves length, refraction renormalises).
+            let wo = -b.ray.dir;
             // Orient the normals toward the side the ray came from.
             let entering = hit.geometric_normal.dot(wo) >= 0.0;
             let (ng, ns) = if entering {
