@@ -19,6 +19,7 @@ pub mod bvh2;
 mod mesh;
 pub mod primitives;
 pub mod procedural;
+pub mod spheres;
 mod tlas;
 pub mod wide;
 
@@ -28,6 +29,7 @@ mod test_util;
 pub use build::{BuildOptions, Width};
 pub use bvh2::{Bvh2, Bvh2Node};
 pub use mesh::MeshBvh;
+pub use spheres::SphereSet;
 pub use tlas::Tlas;
 pub use wide::{Bvh4, Bvh8, Isa, WideBvh};
 

@@ -9,7 +9,7 @@
 //! Hit points carry a conservative bound on their floating-point error (pbrt §3.9) so that
 //! spawned rays start just outside it: no fixed epsilon, correct at every scale.
 
-use glint_accel::{BuildOptions, MeshBvh, Tlas, primitives};
+use glint_accel::{BuildOptions, MeshBvh, SphereSet, Tlas, primitives};
 use glint_core::float::gamma;
 use glint_core::{Affine3A, Bounds3, Mat3, Ray, Rgb, Vec2, Vec3, float::offset_ray_origin};
 use glint_scene::{Material, Mesh, Scene, Shape, Sky, Texture};
@@ -122,11 +122,40 @@ pub struct World {
     blas: Vec<MeshBvh>,
     instances: Vec<Instance>,
     tlas: Tlas,
+    /// Untransformed spheres, tested four at a time beside the TLAS (which then skips them).
+    spheres: SphereSet,
+    /// Instance index of each member of `spheres`.
+    sphere_instances: Vec<u32>,
     planes: Vec<Plane>,
     /// Instance index of each object (None for planes).
     instance_of_object: Vec<Option<usize>>,
     any_transparent: bool,
     pub stats: WorldStats,
+}
+
+/// Up to this many untransformed spheres are tested as a vector set; more go into the TLAS.
+const SPHERE_SET_LIMIT: usize = 16;
+
+/// Split the instances between the sphere set and the top-level BVH.
+fn top_level(instances: &[Instance], blas: &[MeshBvh]) -> (Tlas, SphereSet, Vec<u32>) {
+    let in_set = |inst: &Instance| inst.identity && matches!(inst.shape, InstanceShape::Sphere { .. });
+    let count = instances.iter().filter(|i| in_set(i)).count();
+    let use_set = count <= SPHERE_SET_LIMIT;
+    let mut spheres = Vec::new();
+    let mut ids = Vec::new();
+    let boxes: Vec<Bounds3> = instances
+        .iter()
+        .enumerate()
+        .map(|(i, inst)| match inst.shape {
+            InstanceShape::Sphere { centre, radius } if use_set && in_set(inst) => {
+                spheres.push((centre, radius));
+                ids.push(i as u32);
+                Bounds3::EMPTY // never visited by the TLAS
+            }
+            _ => instance_bounds(inst, blas),
+        })
+        .collect();
+    (Tlas::build(&boxes), SphereSet::new(&spheres), ids)
 }
 
 fn instance_bounds(inst: &Instance, blas: &[MeshBvh]) -> Bounds3 {
@@ -185,8 +214,7 @@ impl World {
                 }
             }
         }
-        let boxes: Vec<Bounds3> = instances.iter().map(|inst| instance_bounds(inst, &blas)).collect();
-        let tlas = Tlas::build(&boxes);
+        let (tlas, spheres, sphere_instances) = top_level(&instances, &blas);
         let any_transparent = scene.materials.iter().any(Material::is_transparent);
         let stats = WorldStats {
             triangles: meshes.iter().map(|m| m.triangles.len()).sum(),
@@ -196,7 +224,19 @@ impl World {
             node_bytes: blas.iter().map(|b| b.stats().node_bytes).sum(),
             build_ms: start.elapsed().as_secs_f64() * 1e3,
         };
-        Self { scene, meshes, blas, instances, tlas, planes, instance_of_object, any_transparent, stats }
+        Self {
+            scene,
+            meshes,
+            blas,
+            instances,
+            tlas,
+            spheres,
+            sphere_instances,
+            planes,
+            instance_of_object,
+            any_transparent,
+            stats,
+        }
     }
 
     /// Move object `object` (not a plane): only the top level is rebuilt.
@@ -226,8 +266,7 @@ impl World {
     }
 
     fn rebuild_top_level(&mut self) {
-        let boxes: Vec<Bounds3> = self.instances.iter().map(|inst| instance_bounds(inst, &self.blas)).collect();
-        self.tlas = Tlas::build(&boxes);
+        (self.tlas, self.spheres, self.sphere_instances) = top_level(&self.instances, &self.blas);
     }
 
     pub fn sky(&self) -> &Sky {
@@ -278,6 +317,22 @@ impl World {
     fn closest(&self, ray: &Ray, transparent_only: bool) -> (Found, f32) {
         let mut found = Found::None;
         let mut tmax = ray.tmax;
+        if transparent_only {
+            // The rare path (transparent meshes in the scene): one sphere at a time.
+            for &i in &self.sphere_instances {
+                let inst = &self.instances[i as usize];
+                if let (false, InstanceShape::Sphere { centre, radius }) = (inst.opaque, inst.shape)
+                    && let Some(t) = primitives::intersect_sphere(&Ray { tmax, ..*ray }, centre, radius)
+                {
+                    found = Found::Instance { inst: i, prim: 0, u: 0.0, v: 0.0 };
+                    tmax = t;
+                }
+            }
+        } else if let Some((t, k)) = self.spheres.closest(ray) {
+            found = Found::Instance { inst: self.sphere_instances[k as usize], prim: 0, u: 0.0, v: 0.0 };
+            tmax = t;
+        }
+        let ray = &Ray { tmax, ..*ray };
         self.tlas.intersect(ray, |i, t_limit| {
             let inst = &self.instances[i as usize];
             if transparent_only && inst.opaque {
@@ -325,6 +380,12 @@ impl World {
                 return true;
             }
         }
+        if self
+            .spheres
+            .crossings(ray, |k, _| !opaque_only || self.instances[self.sphere_instances[k as usize] as usize].opaque)
+        {
+            return true;
+        }
         self.tlas.occluded(ray, |i| {
             let inst = &self.instances[i as usize];
             if opaque_only && !inst.opaque {
@@ -356,6 +417,16 @@ impl World {
                 }
                 t *= self.material(p.material).transparency;
             }
+        }
+        let blocked = self.spheres.crossings(ray, |k, n| {
+            let inst = &self.instances[self.sphere_instances[k as usize] as usize];
+            if !inst.opaque {
+                t *= self.material(inst.material).transparency.powi(n as i32);
+            }
+            inst.opaque
+        });
+        if blocked {
+            return Rgb::ZERO;
         }
         let mut walk = false;
         let blocked = self.tlas.occluded(ray, |i| {

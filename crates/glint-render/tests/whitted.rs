@@ -276,6 +276,15 @@ fn two_level_updates_move_only_what_moved() {
     assert!(world.update_mesh_positions(0, moved));
     let h = world.intersect(&ray).unwrap();
     assert!((h.t - 2.0).abs() < 1e-5, "{}", h.t);
+    // Move the sphere (it leaves the untransformed-sphere set for the TLAS) and back.
+    assert!(world.set_transform(1, Affine3A::from_translation(Vec3::new(0.0, 3.0, 0.0))));
+    assert!(world.intersect(&side).is_none());
+    let up = Ray::new(Vec3::new(10.0, 3.0, 5.0), -Vec3::Z);
+    assert!((world.intersect(&up).unwrap().t - 4.0).abs() < 1e-5);
+    assert!(world.occluded(&up));
+    assert!(world.set_transform(1, Affine3A::IDENTITY));
+    assert!((world.intersect(&side).unwrap().t - 4.0).abs() < 1e-5);
+    assert!(!world.occluded(&up));
 }
 
 fn demo_like_scene() -> Scene {
