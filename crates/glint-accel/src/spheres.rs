@@ -81,8 +81,11 @@ impl SphereSet {
     /// Nearest hit in `(tmin, tmax]`: `(t, sphere index)`; ties go to the lower index.
     #[inline]
     pub fn closest(&self, ray: &Ray) -> Option<(f32, u32)> {
+        if self.len == 0 {
+            return None;
+        }
         let a = ray.dir.dot(ray.dir);
-        if self.len == 0 || a == 0.0 || !a.is_finite() {
+        if a == 0.0 || !a.is_finite() {
             return None;
         }
         let (o, d, av) = Self::splat_ray(ray);
@@ -115,8 +118,11 @@ impl SphereSet {
     /// returns true.
     #[inline]
     pub fn crossings(&self, ray: &Ray, mut visit: impl FnMut(u32, u32) -> bool) -> bool {
+        if self.len == 0 {
+            return false;
+        }
         let a = ray.dir.dot(ray.dir);
-        if self.len == 0 || a == 0.0 || !a.is_finite() {
+        if a == 0.0 || !a.is_finite() {
             return false;
         }
         let (o, d, av) = Self::splat_ray(ray);

@@ -121,7 +121,8 @@ impl Tlas {
         Tlas { kind, bounds }
     }
 
-    /// Visits instances whose box the ray meets, nearest box first. `leaf(instance, tmax_so_far)`
+    /// Visits instances whose box the ray meets, nearest box first (a lone instance is visited
+    /// without the box test: its own BVH tests its root). `leaf(instance, tmax_so_far)`
     /// returns `Some(t)` when it found a hit closer than `tmax_so_far`; that shrinks the ray.
     #[inline]
     pub fn intersect(&self, ray: &Ray, mut leaf: impl FnMut(u32, f32) -> Option<f32>) {
@@ -129,6 +130,11 @@ impl Tlas {
             Kind::Tree(bvh) => bvh.traverse_closest(ray, leaf),
             Kind::Flat(flat) => {
                 if !ray_is_traceable(ray) {
+                    return;
+                }
+                if flat.len == 1 {
+                    // One instance: its own BVH tests its root box; a second test here is waste.
+                    leaf(flat.id[0], ray.tmax);
                     return;
                 }
                 let mut order = [(0.0f32, 0u32); FLAT_LIMIT];
@@ -154,6 +160,9 @@ impl Tlas {
             Kind::Flat(flat) => {
                 if !ray_is_traceable(ray) {
                     return false;
+                }
+                if flat.len == 1 {
+                    return leaf(flat.id[0]);
                 }
                 let mut order = [(0.0f32, 0u32); FLAT_LIMIT];
                 let n = flat.hits(ray, ray.tmax, false, &mut order);
