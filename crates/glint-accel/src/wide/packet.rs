@@ -101,26 +101,28 @@ impl PacketRay {
     #[inline(always)]
     fn new(rays: &[Ray; 8], group: u32, oct: u32) -> Self {
         let mut org = [[0.0f32; 8]; 3];
-        let mut inv = [[1.0f32; 8]; 3];
+        let mut dir = [[1.0f32; 8]; 3];
         let mut tmin = [0.0f32; 8];
         let mut tmax = [f32::NEG_INFINITY; 8];
         for (i, r) in rays.iter().enumerate() {
             if group >> i & 1 == 0 {
                 continue;
             }
-            // Exact reciprocal, as in the single-ray kernel (Ize 2013).
-            let iv = glint_core::Vec3::ONE / r.dir;
             for a in 0..3 {
                 org[a][i] = r.origin[a];
-                inv[a][i] = iv[a];
+                dir[a][i] = r.dir[a];
             }
             tmin[i] = r.tmin;
             tmax[i] = r.tmax;
         }
         let neg = |a: usize| (oct >> a & 1) as usize;
+        // Exact (IEEE, correctly rounded) reciprocal, as in the single-ray kernel (Ize 2013):
+        // bit-identical to its scalar `1 / d`.
+        // SAFETY: AVX only; inlined into the `avx2,fma` kernels (see the top of the file).
+        let inv = dir.map(|d| unsafe { _mm256_div_ps(_mm256_set1_ps(1.0), load(&d)) });
         Self {
             org: org.map(|v| load(&v)),
-            inv: inv.map(|v| load(&v)),
+            inv,
             tmin: load(&tmin),
             near: [neg(0), 2 + neg(1), 4 + neg(2)],
             far: [1 - neg(0), 3 - neg(1), 5 - neg(2)],
@@ -190,7 +192,7 @@ struct Entry8 {
 #[target_feature(enable = "avx2,fma")]
 fn closest_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32, out: &mut [Option<Hit>; 8]) {
     let mut pr = PacketRay::new(rays, group, oct);
-    let tris: [TriRay4; 8] = std::array::from_fn(|i| TriRay4::new(&rays[i]));
+    let mut tris: [Option<TriRay4>; 8] = std::array::from_fn(|_| None);
     let mut tmax = load(&pr.tmax);
     let mut stack = Stack::<Entry8>::new();
     let (mut cur, mut active) = (0u32, group);
@@ -230,8 +232,10 @@ fn closest_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32, out: 
             let mut m = active;
             while m != 0 {
                 let i = m.trailing_zeros() as usize % 8;
+                // Built on the ray's first leaf: most rays of a packet that misses never get here.
+                let tr = tris[i].get_or_insert_with(|| TriRay4::new(&rays[i]));
                 for p in &bvh.packets[leaf_packets(cur)] {
-                    pr.tmax[i] = packet_closest(p, &tris[i], pr.tmax[i], &mut out[i]);
+                    pr.tmax[i] = packet_closest(p, tr, pr.tmax[i], &mut out[i]);
                 }
                 m &= m - 1;
             }
@@ -253,7 +257,7 @@ fn closest_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32, out: 
 #[target_feature(enable = "avx2,fma")]
 fn any_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32) -> u32 {
     let mut pr = PacketRay::new(rays, group, oct);
-    let tris: [TriRay4; 8] = std::array::from_fn(|i| TriRay4::new(&rays[i]));
+    let mut tris: [Option<TriRay4>; 8] = std::array::from_fn(|_| None);
     let ray_tmax = pr.tmax;
     let mut tmax = load(&pr.tmax);
     let mut done = 0u32;
@@ -284,7 +288,8 @@ fn any_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32) -> u32 {
             let mut m = active;
             while m != 0 {
                 let i = m.trailing_zeros() as usize % 8;
-                if bvh.packets[leaf_packets(cur)].iter().any(|p| packet_any(p, &tris[i], ray_tmax[i])) {
+                let tr = tris[i].get_or_insert_with(|| TriRay4::new(&rays[i]));
+                if bvh.packets[leaf_packets(cur)].iter().any(|p| packet_any(p, tr, ray_tmax[i])) {
                     done |= 1 << i;
                     pr.tmax[i] = f32::NEG_INFINITY;
                 }
