@@ -12,7 +12,9 @@
 //!
 //! Kernels: `scalar` (generic over `N`, the oracle and the non-x86 path), `sse` (4-wide, SSE2
 //! is the x86-64 baseline: no detection needed) and `avx2` (8-wide, and 4-wide recompiled with
-//! VEX encoding; only after runtime detection). This module owns the layout and knows no ISA.
+//! VEX encoding; only after runtime detection), and `packet` (8 coherent rays walking the
+//! 8-wide tree together, AVX2; `intersect8_isa` / `occluded8_isa` loop over single rays
+//! elsewhere). This module owns the layout and knows no ISA.
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
