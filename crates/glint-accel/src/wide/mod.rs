@@ -12,10 +12,14 @@
 //!
 //! Kernels: `scalar` (generic over `N`, the oracle and the non-x86 path), `sse` (4-wide, SSE2
 //! is the x86-64 baseline: no detection needed) and `avx2` (8-wide, and 4-wide recompiled with
-//! VEX encoding; only after runtime detection). This module owns the layout and knows no ISA.
+//! VEX encoding; only after runtime detection), and `packet` (8 coherent rays walking the
+//! 8-wide tree together, AVX2; `intersect8_isa` / `occluded8_isa` loop over single rays
+//! elsewhere). This module owns the layout and knows no ISA.
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
+#[cfg(target_arch = "x86_64")]
+mod packet;
 mod scalar;
 #[cfg(target_arch = "x86_64")]
 mod sse;
@@ -48,7 +52,7 @@ const COUNT_SHIFT: u32 = 27;
 const FIRST_MASK: u32 = (1 << COUNT_SHIFT) - 1;
 /// Most packets one leaf can reference.
 pub(crate) const MAX_LEAF_PACKETS: usize = 15;
-const EMPTY_SLOT: u32 = LEAF;
+pub(crate) const EMPTY_SLOT: u32 = LEAF;
 
 #[inline(always)]
 pub(crate) fn leaf_packets(child: u32) -> std::ops::Range<usize> {
@@ -388,6 +392,32 @@ impl WideBvh<8> {
     }
 }
 
+impl WideBvh<8> {
+    /// Closest hits of up to 8 rays with a chosen kernel: with AVX2 the packet kernel
+    /// (`packet.rs`), otherwise one single-ray query per ray. `out[i]` is what
+    /// `intersect_isa(isa, &rays[i])` returns, bit for bit.
+    pub fn intersect8_isa(&self, isa: Isa, rays: &[Ray; 8], out: &mut [Option<Hit>; 8]) {
+        #[cfg(target_arch = "x86_64")]
+        if isa == Isa::Avx2 && Isa::detect() == Isa::Avx2 && !self.nodes.is_empty() {
+            return packet::intersect8(self, rays, out);
+        }
+        for (o, r) in out.iter_mut().zip(rays) {
+            *o = self.intersect_isa(isa, r);
+        }
+    }
+
+    /// Any hits of up to 8 rays: `out[i] == occluded_isa(isa, &rays[i])`.
+    pub fn occluded8_isa(&self, isa: Isa, rays: &[Ray; 8], out: &mut [bool; 8]) {
+        #[cfg(target_arch = "x86_64")]
+        if isa == Isa::Avx2 && Isa::detect() == Isa::Avx2 && !self.nodes.is_empty() {
+            return packet::occluded8(self, rays, out);
+        }
+        for (o, r) in out.iter_mut().zip(rays) {
+            *o = self.occluded_isa(isa, r);
+        }
+    }
+}
+
 /// Traversal stack: a fixed array for the common case, spilling to the heap for deep trees, so
 /// no tree depth can overflow it and no ray pays for a large zeroed array.
 pub(crate) struct Stack<T: Copy + Default> {
@@ -419,6 +449,15 @@ impl<T: Copy + Default> Stack<T> {
         self.len -= 1;
         if self.len < STACK_FIXED { Some(self.fixed[self.len]) } else { self.spill.pop() }
     }
+}
+
+/// Whether a candidate hit at `t` (already known to be within the current `tmax`) replaces
+/// `best`: a nearer one does, and among equally near ones the lowest primitive index (the
+/// brute-force oracle's rule). This makes the closest hit independent of the order in which
+/// leaves are visited, so the packet kernels return what the single-ray kernels return.
+#[inline(always)]
+pub(crate) fn closer(t: f32, prim: u32, best: &Option<Hit>) -> bool {
+    best.is_none_or(|b| t < b.t || (t == b.t && prim < b.prim))
 }
 
 /// A stack entry of the closest-hit kernels: a child reference and its entry distance.

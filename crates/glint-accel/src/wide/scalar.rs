@@ -54,7 +54,9 @@ pub(super) fn intersect<const N: usize>(bvh: &WideBvh<N>, ray: &Ray) -> Option<H
             for p in &bvh.packets[leaf_packets(cur)] {
                 for lane in 0..PACKET {
                     let [a, b, c] = p.lane(lane);
-                    if let Some(h) = woop(&wr, a, b, c, ray.tmin, tmax) {
+                    if let Some(h) = woop(&wr, a, b, c, ray.tmin, tmax)
+                        && super::closer(h.t, p.prim[lane], &best)
+                    {
                         tmax = h.t;
                         best = Some(Hit { t: h.t, prim: p.prim[lane], u: h.u, v: h.v });
                     }

@@ -9,7 +9,7 @@
 //! recomputation.
 
 use super::traverse::{self, Simd};
-use super::{PACKET, TriPacket, WideBvh};
+use super::{PACKET, TriPacket, WideBvh, closer};
 use crate::Hit;
 use crate::primitives::{WoopRay, woop};
 use glint_core::Ray;
@@ -209,20 +209,24 @@ pub(super) fn packet_closest(p: &TriPacket, r: &TriRay4, tmax: f32, best: &mut O
         m &= m - 1;
         while m != 0 {
             let i = m.trailing_zeros() as usize & 3;
-            if t[i] < t[lane] {
+            if t[i] < t[lane] || (t[i] == t[lane] && p.prim[i] < p.prim[lane]) {
                 lane = i;
             }
             m &= m - 1;
         }
-        let (v, w, det) = (l.v.store(), l.w.store(), l.det.store());
-        tmax = t[lane];
-        *best = Some(Hit { t: t[lane], prim: p.prim[lane], u: v[lane] / det[lane], v: w[lane] / det[lane] });
+        if closer(t[lane], p.prim[lane], best) {
+            let (v, w, det) = (l.v.store(), l.w.store(), l.det.store());
+            tmax = t[lane];
+            *best = Some(Hit { t: t[lane], prim: p.prim[lane], u: v[lane] / det[lane], v: w[lane] / det[lane] });
+        }
     }
     let mut z = l.zero;
     while z != 0 {
         let lane = z.trailing_zeros() as usize & 3;
         let [a, b, c] = p.lane(lane);
-        if let Some(h) = woop(&r.woop, a, b, c, r.tmin_s, tmax) {
+        if let Some(h) = woop(&r.woop, a, b, c, r.tmin_s, tmax)
+            && closer(h.t, p.prim[lane], best)
+        {
             tmax = h.t;
             *best = Some(Hit { t: h.t, prim: p.prim[lane], u: h.u, v: h.v });
         }
