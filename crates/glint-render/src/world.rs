@@ -93,14 +93,15 @@ impl SurfaceHit {
         Ray::new(offset_ray_origin(self.position, self.p_error, self.geometric_normal, dir), dir)
     }
 
-    /// A shadow ray toward `target`: unit direction, `tmax` just short of the target.
+    /// A shadow ray toward the point `target` (a point light: no surface there, so the segment
+    /// runs all the way to it): unit direction, `tmax` = the distance to the target.
     #[inline]
     pub fn spawn_ray_to(&self, target: Vec3) -> Ray {
         let dir0 = target - self.position;
         let origin = offset_ray_origin(self.position, self.p_error, self.geometric_normal, dir0);
         let d = target - origin;
         let dist = d.length();
-        Ray::segment(origin, d / dist, 0.0, dist * (1.0 - 1e-4))
+        Ray::segment(origin, d / dist, 0.0, dist)
     }
 }
 
