@@ -23,5 +23,8 @@ pub use material::Material;
 pub use mesh::Mesh;
 pub use object::{Object, Shape};
 pub use scene::{RenderDefaults, Scene};
-pub use sky::Sky;
+pub use sky::{
+    CubeFace, CubeMap, IrradianceSh, LatLongMap, Sky, SkyTransform, cube_direction, cube_face_st, latlong_direction,
+    latlong_uv,
+};
 pub use texture::{Texture, TextureImage};

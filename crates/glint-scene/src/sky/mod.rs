@@ -1,0 +1,139 @@
+//! What a ray that leaves the scene sees (DESIGN.md §4): a colour, a gradient, a cube map or a
+//! lat-long map, looked up by direction only — moving the camera never changes the sky.
+//!
+//! Maps carry a rotation about +Y and an intensity ([`SkyTransform`]). Lookups come in two
+//! kinds: [`Sky::radiance`] (the finest level, bilinear: for light transport) and
+//! [`Sky::radiance_filtered`] (trilinear over the mip pyramid for a ray footprint: for what a
+//! pixel sees, so a 2048² face in a 640-pixel image does not shimmer). [`IrradianceSh`] turns
+//! any sky into the ambient light of a surface with a given normal.
+
+mod cube;
+mod latlong;
+mod level;
+mod sh;
+
+pub use cube::{CubeFace, CubeMap, cube_direction, cube_face_st};
+pub use latlong::{LatLongMap, latlong_direction, latlong_uv};
+pub use sh::IrradianceSh;
+
+use glint_core::{Rgb, Vec3};
+use std::sync::Arc;
+
+/// Where a map sits: turned by `rotation_degrees` about +Y (counter-clockwise seen from above,
+/// so a positive angle moves what was straight ahead to the left), scaled by `intensity`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SkyTransform {
+    pub rotation_degrees: f32,
+    pub intensity: f32,
+    cos: f32,
+    sin: f32,
+}
+
+impl SkyTransform {
+    pub fn new(rotation_degrees: f32, intensity: f32) -> Self {
+        let (sin, cos) = rotation_degrees.to_radians().sin_cos();
+        Self { rotation_degrees, intensity, cos, sin }
+    }
+
+    /// The map-space direction of world direction `d` (the inverse rotation).
+    #[inline(always)]
+    pub fn to_map(&self, d: Vec3) -> Vec3 {
+        if self.sin == 0.0 && self.cos == 1.0 {
+            return d;
+        }
+        Vec3::new(self.cos * d.x - self.sin * d.z, d.y, self.sin * d.x + self.cos * d.z)
+    }
+}
+
+impl Default for SkyTransform {
+    fn default() -> Self {
+        SkyTransform::new(0.0, 1.0)
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Sky {
+    /// One colour in every direction (the thesis's background colour).
+    Colour(Rgb),
+    /// Blend from `horizon` (y = 0) to `zenith` (y = 1); `ground` below the horizon.
+    Gradient { zenith: Rgb, horizon: Rgb, ground: Rgb },
+    /// Six square faces (from separate images, a cross or a strip).
+    CubeMap { map: Arc<CubeMap>, transform: SkyTransform },
+    /// An equirectangular image.
+    LatLong { map: Arc<LatLongMap>, transform: SkyTransform },
+}
+
+impl Default for Sky {
+    fn default() -> Self {
+        Sky::Colour(Rgb::new(0.35, 0.55, 0.85))
+    }
+}
+
+impl Sky {
+    /// Radiance arriving from direction `dir` (any non-zero length), i.e. seen by a ray
+    /// travelling along `dir`; maps are read at their finest level.
+    #[inline]
+    pub fn radiance(&self, dir: Vec3) -> Rgb {
+        match self {
+            Sky::Colour(c) => *c,
+            Sky::Gradient { zenith, horizon, ground } => gradient(dir, *zenith, *horizon, *ground),
+            Sky::CubeMap { map, transform } => map.lookup(transform.to_map(dir)) * transform.intensity,
+            Sky::LatLong { map, transform } => map.lookup(transform.to_map(dir)) * transform.intensity,
+        }
+    }
+
+    /// Radiance averaged over a cone `cone_angle` radians wide around `dir`: maps pick their
+    /// mip level from it (trilinear). A zero angle is [`Sky::radiance`].
+    #[inline]
+    pub fn radiance_filtered(&self, dir: Vec3, cone_angle: f32) -> Rgb {
+        match self {
+            Sky::Colour(c) => *c,
+            Sky::Gradient { zenith, horizon, ground } => gradient(dir, *zenith, *horizon, *ground),
+            Sky::CubeMap { map, transform } => {
+                map.lookup_filtered(transform.to_map(dir), cone_angle) * transform.intensity
+            }
+            Sky::LatLong { map, transform } => {
+                map.lookup_filtered(transform.to_map(dir), cone_angle) * transform.intensity
+            }
+        }
+    }
+
+    /// True for skies that are the same in every direction.
+    pub fn is_constant(&self) -> bool {
+        matches!(self, Sky::Colour(_))
+    }
+
+    /// The sky's irradiance as spherical harmonics (the ambient light of a surface).
+    pub fn irradiance_sh(&self) -> IrradianceSh {
+        IrradianceSh::project(|d, footprint| self.radiance_filtered(d, footprint))
+    }
+}
+
+#[inline]
+fn gradient(dir: Vec3, zenith: Rgb, horizon: Rgb, ground: Rgb) -> Rgb {
+    let y = dir.normalize_or(Vec3::Y).y;
+    if y >= 0.0 { horizon.lerp(zenith, y.min(1.0)) } else { ground }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rotation_turns_the_map_about_up() {
+        // A map bright only around −Z (ahead), turned 90°: now bright toward −X (to the left).
+        let map = Arc::new(LatLongMap::from_fn(32, |d| Rgb::splat((-d.z).max(0.0).powi(8))));
+        let sky = Sky::LatLong { map, transform: SkyTransform::new(90.0, 2.0) };
+        assert!(sky.radiance(-Vec3::X).x > 1.9, "{}", sky.radiance(-Vec3::X));
+        assert!(sky.radiance(-Vec3::Z).x < 0.01);
+        assert!(sky.radiance(Vec3::X).x < 0.01);
+    }
+
+    #[test]
+    fn gradient_and_colour_ignore_footprints() {
+        let g = Sky::Gradient { zenith: Rgb::ONE, horizon: Rgb::ZERO, ground: Rgb::splat(0.5) };
+        assert_eq!(g.radiance(Vec3::Y), Rgb::ONE);
+        assert_eq!(g.radiance_filtered(-Vec3::Y, 3.0), Rgb::splat(0.5));
+        assert_eq!(Sky::Colour(Rgb::X).radiance_filtered(Vec3::Z, 1.0), Rgb::X);
+    }
+}
