@@ -61,6 +61,13 @@ pub fn render_with_progress(
     let mut film = Film::new(settings.width, settings.height);
     let camera = world.scene.camera.rays(settings.width, settings.height);
     let params = WhittedParams { max_depth: settings.max_depth, min_contribution: settings.min_contribution };
+    // Ray footprints for sky filtering: a sample's angular width at the image centre (a
+    // pixel's over the samples per side), shrinking off-axis as cos^1.5 (a pinhole pixel
+    // subtends cos³ of the centre's solid angle). Reflected and refracted rays keep their
+    // primary ray's footprint: exact behind flat mirrors, too sharp behind curved ones, never
+    // too blurry.
+    let centre_cone = 1.0 / (camera.focal_pixels * settings.samples_per_side as f32);
+    let forward = world.scene.camera.forward.normalize();
 
     let render_band = |band_index: usize, band: &mut [FilmPixel]| -> BandStats {
         let mut tracer = Tracer::default();
@@ -83,7 +90,8 @@ pub fn render_with_progress(
                             stratified_2d(s, n, stream.next_2d())
                         };
                         let ray = camera.ray(Vec2::new(x as f32, y as f32) + offset);
-                        let (c, first) = tracer.trace(world, ray, &params);
+                        let cos = ray.dir.dot(forward);
+                        let (c, first) = tracer.trace(world, ray, centre_cone * cos * cos.sqrt(), &params);
                         if c.is_finite() {
                             acc.colour += c;
                         } else {

@@ -12,7 +12,7 @@
 use glint_accel::{BuildOptions, MeshBvh, SphereSet, Tlas, primitives};
 use glint_core::float::gamma;
 use glint_core::{Affine3A, Bounds3, Mat3, Ray, Rgb, Vec2, Vec3, float::offset_ray_origin};
-use glint_scene::{Material, Mesh, Scene, Shape, Sky, Texture};
+use glint_scene::{IrradianceSh, Material, Mesh, Scene, Shape, Sky, Texture};
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -131,6 +131,8 @@ pub struct World {
     /// Instance index of each object (None for planes).
     instance_of_object: Vec<Option<usize>>,
     any_transparent: bool,
+    /// The sky's irradiance, when the scene takes its ambient light from the sky.
+    sky_irradiance: Option<IrradianceSh>,
     pub stats: WorldStats,
 }
 
@@ -217,6 +219,7 @@ impl World {
         }
         let (tlas, spheres, sphere_instances) = top_level(&instances, &blas);
         let any_transparent = scene.materials.iter().any(Material::is_transparent);
+        let sky_irradiance = scene.sky_ambient.then(|| scene.sky.irradiance_sh());
         let stats = WorldStats {
             triangles: meshes.iter().map(|m| m.triangles.len()).sum(),
             instances: instances.len(),
@@ -236,6 +239,7 @@ impl World {
             planes,
             instance_of_object,
             any_transparent,
+            sky_irradiance,
             stats,
         }
     }
@@ -272,6 +276,17 @@ impl World {
 
     pub fn sky(&self) -> &Sky {
         &self.scene.sky
+    }
+
+    /// I_a for a surface with unit normal `n`: the scene's ambient colour, or with
+    /// `sky_ambient` that colour times the sky's irradiance over π (a uniform sky of radiance L
+    /// gives L).
+    #[inline]
+    pub fn ambient(&self, n: Vec3) -> Rgb {
+        match &self.sky_irradiance {
+            Some(sh) => self.scene.ambient * sh.irradiance(n) * std::f32::consts::FRAC_1_PI,
+            None => self.scene.ambient,
+        }
     }
 
     pub fn material(&self, index: u32) -> &Material {

@@ -31,6 +31,12 @@ pub struct Material {
     pub fresnel: bool,
     /// Emitted radiance (area lights in path mode; added as-is in Whitted mode).
     pub emission: Rgb,
+    /// Fresnel reflection of the surroundings (DESIGN.md §4): the shaded colour is blended with
+    /// a traced reflection ray by Schlick's `F = f0 + (1 − f0)(1 − n·v)^5`, i.e.
+    /// `lerp(shaded, reflected, F)`. f0 = 0.04 for dielectrics (plastic, paint, glazed
+    /// ceramic); a metal's own reflectance (gold ≈ (1.0, 0.71, 0.29)). Excludes the constant
+    /// `reflectivity` and `transparency` (which has its exact Fresnel weights).
+    pub reflection_f0: Option<Rgb>,
 }
 
 impl Default for Material {
@@ -48,6 +54,7 @@ impl Default for Material {
             ior: 1.5,
             fresnel: true,
             emission: Rgb::ZERO,
+            reflection_f0: None,
         }
     }
 }
@@ -55,5 +62,14 @@ impl Default for Material {
 impl Material {
     pub fn is_transparent(&self) -> bool {
         self.transparency > 0.0
+    }
+
+    /// Schlick's Fresnel reflectance for the cosine between the normal and the outgoing
+    /// direction, when the material opts into Fresnel reflection.
+    #[inline]
+    pub fn schlick(&self, cos_o: f32) -> Option<Rgb> {
+        let f0 = self.reflection_f0?;
+        let m = (1.0 - cos_o.clamp(0.0, 1.0)).powi(5);
+        Some(f0 + (Rgb::ONE - f0) * m)
     }
 }

@@ -43,8 +43,12 @@ pub struct Scene {
     pub camera: Camera,
     pub render: RenderDefaults,
     pub sky: Sky,
-    /// I_a: ambient light colour, multiplied by each material's K_a.
+    /// I_a: ambient light colour, multiplied by each material's K_a. With `sky_ambient`, a tint
+    /// on the sky's light instead.
     pub ambient: Rgb,
+    /// The ambient light is the sky's: for a surface with normal n, I_a = `ambient` · E(n)/π,
+    /// E the sky's irradiance (so a uniform sky of radiance L gives I_a = `ambient` · L).
+    pub sky_ambient: bool,
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
     pub meshes: Vec<Arc<Mesh>>,
@@ -156,6 +160,17 @@ impl Scene {
         }
         if !(m.ior.is_finite() && m.ior >= 1.0 && m.ior <= 10.0) {
             return Err(SceneError::invalid(what(), format!("ior = {} must be in [1, 10]", m.ior)));
+        }
+        if let Some(f0) = m.reflection_f0 {
+            if !f0.is_finite() || f0.min_element() < 0.0 || f0.max_element() > 1.0 {
+                return Err(SceneError::invalid(what(), format!("f0 = {f0} must be in [0, 1]")));
+            }
+            if m.reflectivity > 0.0 || m.transparency > 0.0 {
+                return Err(SceneError::invalid(
+                    what(),
+                    "Fresnel reflection (f0) and a constant reflectivity or transparency exclude each other",
+                ));
+            }
         }
         if !m.colour.is_finite()
             || m.colour.min_element() < 0.0
@@ -345,6 +360,31 @@ mod tests {
         let mut s = one_sphere();
         s.objects[0].material = 3;
         assert!(matches!(s.validate(), Err(SceneError::BadReference { .. })));
+    }
+
+    #[test]
+    fn fresnel_reflection_excludes_constant_reflectivity_and_stays_in_range() {
+        let mut s = one_sphere();
+        s.materials[0].reflection_f0 = Some(Rgb::splat(0.04));
+        assert!(s.validate().is_ok());
+        s.materials[0].reflectivity = 0.5;
+        let e = s.validate().expect_err("both");
+        assert!(e.to_string().contains("exclude each other"), "{e}");
+        s.materials[0].reflectivity = 0.0;
+        s.materials[0].reflection_f0 = Some(Rgb::new(1.2, 0.5, 0.5));
+        assert!(s.validate().is_err());
+        s.materials[0].reflection_f0 = Some(Rgb::new(f32::NAN, 0.5, 0.5));
+        assert!(s.validate().is_err());
+    }
+
+    #[test]
+    fn schlick_goes_from_f0_to_one() {
+        let m = Material { reflection_f0: Some(Rgb::splat(0.04)), ..Material::default() };
+        assert_eq!(m.schlick(1.0), Some(Rgb::splat(0.04)));
+        assert_eq!(m.schlick(0.0), Some(Rgb::ONE));
+        let mid = m.schlick(0.5).expect("opted in").x;
+        assert!((mid - (0.04 + 0.96 * 0.5f32.powi(5))).abs() < 1e-6);
+        assert_eq!(Material::default().schlick(0.5), None);
     }
 
     #[test]

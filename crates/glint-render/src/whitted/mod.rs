@@ -61,7 +61,8 @@ pub struct WhittedParams {
 
 impl Tracer {
     /// Radiance along a primary ray, and its first hit.
-    pub fn trace(&mut self, world: &World, ray: Ray, params: &WhittedParams) -> (Rgb, Option<FirstHit>) {
+    /// `cone` is the ray's footprint (angular width in radians) for sky filtering.
+    pub fn trace(&mut self, world: &World, ray: Ray, cone: f32, params: &WhittedParams) -> (Rgb, Option<FirstHit>) {
         let mut colour = Rgb::ZERO;
         let mut first = None;
         self.stack.clear();
@@ -73,7 +74,7 @@ impl Tracer {
                 self.counts.secondary += 1;
             }
             let Some(hit) = world.intersect(&b.ray) else {
-                colour += b.weight * world.sky().radiance(b.ray.dir);
+                colour += b.weight * world.sky().radiance_filtered(b.ray.dir, cone);
                 continue;
             };
             let m = world.material(hit.material);
@@ -92,13 +93,25 @@ impl Tracer {
                 first = Some(FirstHit { normal: ns, albedo, position: hit.position });
             }
             let local = self.local(world, &hit, m, albedo, wo, ng, ns);
+            let cos_o = ns.dot(wo).clamp(0.0, 1.0);
+            // Fresnel reflection (DESIGN.md §4): lerp(shaded, reflected, F), F by Schlick.
+            if let Some(f) = m.schlick(cos_o) {
+                colour += b.weight * local * (Rgb::ONE - f);
+                if b.depth < params.max_depth {
+                    let weight = b.weight * f;
+                    if weight.max_element() > params.min_contribution {
+                        let ray = hit.spawn_ray(reflect(-wo, ns));
+                        self.stack.push(Branch { ray, weight, depth: b.depth + 1 });
+                    }
+                }
+                continue;
+            }
             colour += b.weight * local * (1.0 - m.transparency);
 
             if b.depth >= params.max_depth {
                 continue;
             }
             // Reflection and refraction weights.
-            let cos_o = ns.dot(wo).clamp(0.0, 1.0);
             let (mut k_refl, mut k_refr) = (m.reflectivity, m.transparency);
             let (eta_i, eta_t) = if entering { (1.0, m.ior) } else { (m.ior, 1.0) };
             let refracted = if m.is_transparent() { refract(-wo, ns, eta_i / eta_t) } else { None };
@@ -139,7 +152,7 @@ impl Tracer {
         ng: Vec3,
         ns: Vec3,
     ) -> Rgb {
-        let mut c = m.emission + world.scene.ambient * albedo * m.ambient;
+        let mut c = m.emission + world.ambient(ns) * albedo * m.ambient;
         for light in &world.scene.lights {
             let Some(ls) = light.sample_at(hit.position) else { continue };
             let cos_l = ns.dot(ls.wi);

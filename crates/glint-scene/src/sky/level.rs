@@ -3,7 +3,7 @@
 //! the border holds (the neighbouring cube face, the opposite longitude, a clamped row) is
 //! decided by the map that owns the level; this module only stores, filters and downsamples.
 
-use glint_core::Rgb;
+use glint_core::{Rgb, Vec3A};
 
 /// `width × height` texels inside a border of one texel on each side. Row 0 is the top row.
 #[derive(Clone, Debug, PartialEq)]
@@ -12,8 +12,9 @@ pub(crate) struct Level {
     pub height: usize,
     /// `width + 2`.
     pub stride: usize,
-    /// `(width + 2) × (height + 2)` texels, border included.
-    pub texels: Vec<Rgb>,
+    /// `(width + 2) × (height + 2)` texels, border included; 16-byte SIMD lanes (the fourth
+    /// unused), so that a bilinear lerp is three vector operations.
+    pub texels: Vec<Vec3A>,
 }
 
 impl Level {
@@ -22,10 +23,12 @@ impl Level {
     pub fn from_interior(width: usize, height: usize, texels: &[Rgb]) -> Level {
         debug_assert_eq!(texels.len(), width * height);
         let stride = width + 2;
-        let mut out = vec![Rgb::ZERO; stride * (height + 2)];
+        let mut out = vec![Vec3A::ZERO; stride * (height + 2)];
         for y in 0..height {
-            out[(y + 1) * stride + 1..(y + 1) * stride + 1 + width]
-                .copy_from_slice(&texels[y * width..(y + 1) * width]);
+            let row = &mut out[(y + 1) * stride + 1..(y + 1) * stride + 1 + width];
+            for (o, t) in row.iter_mut().zip(&texels[y * width..(y + 1) * width]) {
+                *o = Vec3A::from(*t);
+            }
         }
         Level { width, height, stride, texels: out }
     }
@@ -38,13 +41,13 @@ impl Level {
 
     #[inline(always)]
     pub fn get(&self, x: isize, y: isize) -> Rgb {
-        self.texels[self.index(x, y)]
+        self.texels[self.index(x, y)].into()
     }
 
     #[inline(always)]
     pub fn set(&mut self, x: isize, y: isize, c: Rgb) {
         let i = self.index(x, y);
-        self.texels[i] = c;
+        self.texels[i] = c.into();
     }
 
     /// The texels inside the border, row-major.
@@ -52,7 +55,7 @@ impl Level {
         let mut out = Vec::with_capacity(self.width * self.height);
         for y in 0..self.height {
             let row = (y + 1) * self.stride + 1;
-            out.extend_from_slice(&self.texels[row..row + self.width]);
+            out.extend(self.texels[row..row + self.width].iter().map(|&t| Rgb::from(t)));
         }
         out
     }
@@ -62,20 +65,19 @@ impl Level {
     /// the read never leaves the bordered grid.
     #[inline(always)]
     pub fn bilinear(&self, u: f32, v: f32) -> Rgb {
-        let x = (u - 0.5).clamp(-0.5, self.width as f32 - 0.5);
-        let y = (v - 0.5).clamp(-0.5, self.height as f32 - 0.5);
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        // x0 ∈ [-1, width - 1], so x0 + 1 ∈ [0, width] and the right tap x0 + 2 ≤ width + 1 <
-        // stride; `as` saturates (NaN → 0), so the index is always in range.
-        let xi = (x0 as isize + 1).clamp(0, self.width as isize) as usize;
-        let yi = (y0 as isize + 1).clamp(0, self.height as isize) as usize;
+        // Shifted by one texel into the bordered grid: x = u − ½ + 1 ∈ [½, width + ½], so the
+        // left tap is ⌊x⌋ ∈ [0, width] and the right one ≤ width + 1 < stride. Being positive,
+        // ⌊x⌋ is a truncating cast (no libm floor call); max/min map NaN to the edge.
+        let x = (u + 0.5).max(0.5).min(self.width as f32 + 0.5);
+        let y = (v + 0.5).max(0.5).min(self.height as f32 + 0.5);
+        let (xi, yi) = (x as usize, y as usize);
+        let (fx, fy) = (x - xi as f32, y - yi as f32);
         let i = yi * self.stride + xi;
         let t = &self.texels[i..i + 2];
         let b = &self.texels[i + self.stride..i + self.stride + 2];
         let top = t[0] + (t[1] - t[0]) * fx;
         let bottom = b[0] + (b[1] - b[0]) * fx;
-        top + (bottom - top) * fy
+        (top + (bottom - top) * fy).into()
     }
 
     /// The next coarser level's interior: each side halved (at least 1), every new texel the
@@ -128,14 +130,17 @@ pub(crate) fn level_count(size: usize) -> usize {
     (usize::BITS - size.max(1).leading_zeros()) as usize
 }
 
-/// log2 of a positive number, to within 0.09, from its bits: enough to pick a mip level.
+/// log2 of a positive number, to within 0.01, from its bits: enough to pick a mip level, and
+/// exact at powers of two (so a footprint of exactly one texel reads one level only).
 #[inline(always)]
 pub(crate) fn fast_log2(x: f32) -> f32 {
     let bits = x.to_bits();
     let exponent = ((bits >> 23) & 0xff) as f32 - 127.0;
-    let mantissa = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000); // in [1, 2)
-    // Quadratic fit of log2 on [1, 2): exact at 1 and 2.
-    exponent + (-0.344_848_43 * mantissa + 2.024_665_8) * mantissa - 1.674_877_6
+    let m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000); // mantissa in [1, 2)
+    // The quadratic −m²/3 + 2m − 5/3 through (1, 0) and (2, 1), written in t = m − 1 so that
+    // t = 0 gives exactly 0.
+    let t = m - 1.0;
+    exponent + t * (4.0 / 3.0 - t * (1.0 / 3.0))
 }
 
 #[cfg(test)]
@@ -192,7 +197,11 @@ mod tests {
     #[test]
     fn fast_log2_is_close() {
         for x in [1e-6f32, 0.3, 1.0, 1.5, 2.0, 3.7, 1024.0, 5e7] {
-            assert!((fast_log2(x) - x.log2()).abs() < 0.09, "{x}");
+            assert!((fast_log2(x) - x.log2()).abs() < 0.01, "{x}");
+        }
+        for k in -20..20 {
+            let x = 2f32.powi(k);
+            assert_eq!(fast_log2(x), k as f32);
         }
     }
 }
