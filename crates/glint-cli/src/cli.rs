@@ -21,6 +21,9 @@ pub enum Command {
     /// Benchmarks (ray throughput, Whitted frames).
     #[command(subcommand)]
     Bench(BenchCommand),
+    /// Sky maps: convert between six faces, crosses, strips and lat-long maps (docs/skies.md).
+    #[command(subcommand)]
+    Sky(SkyCommand),
 }
 
 #[derive(Args, Debug, Clone, Default)]
@@ -73,9 +76,40 @@ pub struct RenderArgs {
     pub alpha: bool,
     #[command(flatten)]
     pub camera: CameraArgs,
+    #[command(flatten)]
+    pub sky: SkyArgs,
     /// Print no progress bar or summary.
     #[arg(long, short)]
     pub quiet: bool,
+}
+
+/// Sky options of `glint render` (docs/skies.md).
+#[derive(Args, Debug, Clone, Default)]
+pub struct SkyArgs {
+    /// Sky image: a folder of six faces, a cross or strip, or a 2:1 lat-long map (PNG, JPEG,
+    /// HDR, EXR). Replaces the scene's sky; a model rendered without a scene is then lit by it.
+    #[arg(long, value_name = "PATH")]
+    pub sky: Option<PathBuf>,
+    /// Turn the sky about the up axis (degrees, counter-clockwise seen from above).
+    #[arg(long = "sky-rotation", value_name = "DEG", allow_hyphen_values = true)]
+    pub sky_rotation: Option<f32>,
+    /// Multiply the sky's radiance.
+    #[arg(long = "sky-intensity", value_name = "X")]
+    pub sky_intensity: Option<f32>,
+    /// Flip every cube face as it is read (sets stored upside down need `vertical`).
+    #[arg(long = "sky-flip", value_enum, value_name = "HOW")]
+    pub sky_flip: Option<FlipArg>,
+    /// Take the ambient light from the sky (its irradiance by surface normal).
+    #[arg(long = "sky-ambient")]
+    pub sky_ambient: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FlipArg {
+    None,
+    Horizontal,
+    Vertical,
+    Both,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -143,4 +177,53 @@ pub struct BenchWhittedArgs {
     pub frames: usize,
     #[arg(long, value_enum, default_value = "stealing")]
     pub schedule: ScheduleArg,
+    /// Also time the scene under this sky (a cube map or lat-long map), frames interleaved
+    /// with the scene's own sky, and report the ratio.
+    #[arg(long, value_name = "PATH")]
+    pub sky: Option<PathBuf>,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum SkyCommand {
+    /// Convert a sky to another layout: e.g. a lat-long HDR to six faces, a cross to faces.
+    Convert(SkyConvertArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct SkyConvertArgs {
+    /// Sky to read: one image (cross, strip or lat-long, told by its aspect) or a folder of six
+    /// faces (px/nx/..., posx/..., right/left/up/down/front/back).
+    pub input: PathBuf,
+    /// Where to write: a folder for --to faces, else an image whose extension (.png, .jpg, .hdr,
+    /// .exr) picks the format.
+    pub output: PathBuf,
+    /// Layout to write.
+    #[arg(long, value_enum)]
+    pub to: SkyLayoutArg,
+    /// Face edge (faces, crosses, strips) or height (lat-long, width twice that) in texels.
+    /// Default: the input's face edge, or its height for a lat-long input.
+    #[arg(long, value_name = "N")]
+    pub size: Option<u32>,
+    /// Flip every input face first (sets stored upside down or mirrored).
+    #[arg(long, value_enum)]
+    pub flip: Option<FlipArg>,
+    /// Print no warnings or summary.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SkyLayoutArg {
+    /// A folder with px, nx, py, ny, pz, nz (PNG for LDR input, .hdr/.exr for HDR input).
+    Faces,
+    /// One 4:3 image, horizontal cross.
+    Cross,
+    /// One 3:4 image, vertical cross.
+    VerticalCross,
+    /// One 6:1 image, faces px nx py ny pz nz left to right.
+    Strip,
+    /// One 1:6 image, faces top to bottom.
+    VerticalStrip,
+    /// One 2:1 equirectangular image.
+    Latlong,
 }

@@ -21,13 +21,10 @@ pub enum FormatError {
     #[error("{}:{line}:{column}: {message}", file.display())]
     Value { file: PathBuf, line: usize, column: usize, message: String },
 
-    /// The operating system could not read the file.
-    #[error("{}: cannot read: {source}", file.display())]
-    Io {
-        file: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// The operating system could not read the file. The I/O error is part of the message and
+    /// deliberately not a `source()`, so error chains (`{:#}`) do not print it twice.
+    #[error("{}: cannot read: {error}", file.display())]
+    Io { file: PathBuf, error: std::io::Error },
 
     /// A file named by another file (a mesh or texture in a scene, a buffer in a glTF) is not
     /// there.
@@ -51,6 +48,16 @@ pub enum FormatError {
         source: SceneError,
     },
 
+    /// Sky images that do not make a cube map or a lat-long map: a missing, duplicated,
+    /// non-square or unequal face, an image whose aspect is no known layout, a face transform
+    /// on a lat-long map. `file` is the image, or the folder of faces.
+    #[error("{}: {message}", file.display())]
+    Sky { file: PathBuf, message: String },
+
+    /// An output file (a converted sky) could not be written; nothing was left under its name.
+    #[error("{}: cannot write: {message}", file.display())]
+    Write { file: PathBuf, message: String },
+
     /// The file's extension is not one glint reads.
     #[error("{}: unsupported file type '{extension}' (glint reads .toml scenes and .obj, .ply, .gltf, .glb models)", file.display())]
     UnsupportedFormat { file: PathBuf, extension: String },
@@ -65,8 +72,16 @@ impl FormatError {
         Self::Limits { file: file.into(), message: message.into() }
     }
 
+    pub(crate) fn sky(file: impl Into<PathBuf>, message: impl Into<String>) -> Self {
+        Self::Sky { file: file.into(), message: message.into() }
+    }
+
+    pub(crate) fn write(file: impl Into<PathBuf>, message: impl Into<String>) -> Self {
+        Self::Write { file: file.into(), message: message.into() }
+    }
+
     pub(crate) fn io(file: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Self::Io { file: file.into(), source }
+        Self::Io { file: file.into(), error: source }
     }
 
     /// The file the error is about.
@@ -79,6 +94,8 @@ impl FormatError {
             | Self::Malformed { file, .. }
             | Self::Limits { file, .. }
             | Self::Invalid { file, .. }
+            | Self::Sky { file, .. }
+            | Self::Write { file, .. }
             | Self::UnsupportedFormat { file, .. } => file,
         }
     }
@@ -96,6 +113,8 @@ mod tests {
             FormatError::limits("a.ply", "too many"),
             FormatError::MissingFile { file: "m.obj".into(), referenced_from: "a.toml:4".into() },
             FormatError::Invalid { file: "a.toml".into(), source: SceneError::Empty },
+            FormatError::sky("skies/miramar", "missing cube face ny"),
+            FormatError::write("out/px.png", "disk full"),
         ];
         for e in errs {
             let text = e.to_string();

@@ -5,7 +5,9 @@
 //! - model files: OBJ/MTL (own parser, fast, errors with line numbers), PLY (own parser:
 //!   ASCII and binary, general element/property reader shared with point clouds), glTF 2.0
 //!   (.gltf/.glb through the `gltf` crate);
-//! - [`scene_for_model`]: a camera, lights and a sky to look at a model without a scene file.
+//! - [`scene_for_model`]: a camera, lights and a sky to look at a model without a scene file;
+//! - sky images ([`load_sky`], [`write_sky`]): six faces by name, crosses, strips and lat-long
+//!   maps, LDR and HDR (docs/skies.md).
 //!
 //! Sits between glint-scene (what it produces) and the binaries; it never renders, and nothing
 //! but the binaries and tests depends on it. A file is fully understood or rejected: unknown
@@ -19,10 +21,15 @@ mod model;
 mod obj;
 pub mod ply;
 mod scene_toml;
+pub mod sky;
 mod texture_file;
 
 pub use error::FormatError;
 pub use model::{Model, load_model, scene_for_model};
+pub use sky::{
+    FaceTransform, LoadedSky, SkyLayout, SkyLoadOptions, SkyMapRef, SkySource, SkyWriteOptions, WrittenSky, load_sky,
+    seam_mismatch, write_sky,
+};
 
 use glint_scene::{Material, Mesh, Scene, Texture};
 use model::ModelFormat;

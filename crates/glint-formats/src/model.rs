@@ -165,6 +165,7 @@ pub fn scene_for_model(model: Model) -> Scene {
         sky: Sky::Colour(Rgb::splat(0.2)),
         render,
         ambient: Rgb::ONE,
+        sky_ambient: false,
         materials,
         textures,
         meshes: meshes.into_iter().map(Arc::new).collect(),

@@ -22,7 +22,7 @@ pub(crate) fn read_texture_image(path: &Path) -> Result<TextureImage, FormatErro
     Ok(TextureImage { width, height, texels: texels.collect() })
 }
 
-fn image_error(path: &Path, e: ImageError) -> FormatError {
+pub(crate) fn image_error(path: &Path, e: ImageError) -> FormatError {
     match e {
         ImageError::Io { source, .. } => FormatError::io(path, source),
         ImageError::Limits { message, .. } => FormatError::limits(path, format!("image too large: {message}")),

@@ -3,7 +3,8 @@
 //! The renderer's film ends here: [`Image`] holds any number of named f32 planes (EXR-style
 //! names such as `R`, `A`, `Z`, `Albedo.R`, `Ns.X`), [`write_exr`] stores all of them losslessly,
 //! and [`write_png`] turns the `R`,`G`,`B` planes into a display image. Scenes read textures and
-//! sky maps through [`read_image`] / [`read_texture`]; tests and `glint compare` measure
+//! sky maps through [`read_image`] / [`read_texture`]; [`write_hdr`] (Radiance RGBE) and
+//! [`write_jpeg`] serve the sky converter; tests and `glint compare` measure
 //! differences with [`metrics`]. Depends on glint-core only (for the sRGB transfer function).
 //!
 //! # From radiance to an 8-bit pixel
@@ -47,6 +48,7 @@
 mod atomic;
 pub mod error;
 mod exr_io;
+mod hdr_io;
 pub mod metrics;
 mod planar;
 mod png_io;
@@ -56,20 +58,24 @@ pub mod tonemap;
 pub use atomic::atomic_write;
 pub use error::{ImageError, UnknownToneMap};
 pub use exr_io::write_exr;
+pub use hdr_io::write_hdr;
 pub use planar::{Channel, Image, RgbPlanes};
-pub use png_io::{PngOptions, encode_srgb8, write_png};
+pub use png_io::{JPEG_QUALITY, PngOptions, encode_srgb8, write_jpeg, write_png};
 pub use read::{MAX_PIXELS, MAX_SAMPLES, MAX_SIDE, read_image, read_texture};
 pub use tonemap::ToneMap;
 
 use std::path::Path;
 
-/// Writes `image` in the format its extension names: `.png` (using `options`) or `.exr` (all
-/// channels, `options` ignored), case-insensitive. Anything else is
+/// Writes `image` in the format its extension names, case-insensitive: `.png` or
+/// `.jpg`/`.jpeg` (8-bit sRGB, using `options`), `.hdr` (Radiance RGBE, linear `R`,`G`,`B`,
+/// `options` ignored) or `.exr` (all channels, linear, `options` ignored). Anything else is
 /// [`ImageError::UnsupportedFormat`]. The write is atomic (see [`atomic_write`]).
 pub fn write_image(path: &Path, image: &Image, options: &PngOptions) -> Result<(), ImageError> {
     let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     match extension.as_deref() {
         Some("png") => write_png(path, image, options),
+        Some("jpg" | "jpeg") => write_jpeg(path, image, options),
+        Some("hdr") => write_hdr(path, image),
         Some("exr") => write_exr(path, image),
         _ => Err(ImageError::UnsupportedFormat { path: path.to_path_buf() }),
     }
@@ -118,7 +124,7 @@ mod tests {
     fn write_image_dispatches_on_extension_case_insensitively() {
         let dir = TestDir::new("dispatch");
         let image = Image::from_rgb(2, 1, &[[0.25, 0.5, 1.0], [0.0, 0.0, 0.0]]);
-        for name in ["a.png", "b.PNG", "c.exr", "d.ExR"] {
+        for name in ["a.png", "b.PNG", "c.exr", "d.ExR", "e.hdr", "f.HDR", "g.jpg", "h.jpeg"] {
             let path = dir.join(name);
             write_image(&path, &image, &PngOptions::default()).expect("write");
             let back = read_image(&path).expect("read back");
@@ -130,7 +136,7 @@ mod tests {
     fn unsupported_extension_names_the_path() {
         let dir = TestDir::new("unsupported");
         let image = Image::from_rgb(1, 1, &[[0.0; 3]]);
-        for name in ["out.tga", "out", "out.jpg", "out.hdr"] {
+        for name in ["out.tga", "out", "out.bmp", "out.tiff"] {
             let path = dir.join(name);
             let err = write_image(&path, &image, &PngOptions::default()).expect_err("must fail");
             assert!(matches!(err, ImageError::UnsupportedFormat { .. }), "{err}");

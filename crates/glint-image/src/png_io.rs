@@ -1,4 +1,4 @@
-//! Linear image → 8-bit sRGB (exposure, tone map, OETF, rounding) and PNG writing.
+//! Linear image → 8-bit sRGB (exposure, tone map, OETF, rounding) and PNG / JPEG writing.
 //!
 //! The per-value chain is documented in the crate docs. Encoding is the one hot path here
 //! (the viewer and the CLI encode every frame), so the OETF and rounding go through a table
@@ -9,6 +9,7 @@ use std::sync::OnceLock;
 
 use glint_core::colour::srgb_to_linear;
 use image::ImageEncoder;
+use image::codecs::jpeg::JpegEncoder;
 use image::codecs::png::{CompressionType, FilterType, PngEncoder};
 use rayon::prelude::*;
 
@@ -115,6 +116,22 @@ pub fn write_png(path: &Path, image: &Image, options: &PngOptions) -> Result<(),
     let mut bytes = Vec::with_capacity(pixels.len() / 2 + 1024);
     PngEncoder::new_with_quality(&mut bytes, CompressionType::Fast, FilterType::Paeth)
         .write_image(&pixels, image.width, image.height, colour)
+        .map_err(|e| ImageError::encode(path, e.to_string()))?;
+    atomic_write(path, &bytes)
+}
+
+/// JPEG quality of [`write_jpeg`]: high enough that sky faces and crosses show no blocking.
+pub const JPEG_QUALITY: u8 = 95;
+
+/// Writes `image` as an 8-bit sRGB baseline JPEG (quality [`JPEG_QUALITY`]), atomically, with
+/// the same exposure and tone map as [`write_png`]. JPEG has no alpha: `options.alpha` is
+/// ignored and only `R`, `G`, `B` are written.
+pub fn write_jpeg(path: &Path, image: &Image, options: &PngOptions) -> Result<(), ImageError> {
+    let options = PngOptions { alpha: false, ..*options };
+    let pixels = encode_srgb8(image, &options)?;
+    let mut bytes = Vec::with_capacity(pixels.len() / 4 + 1024);
+    JpegEncoder::new_with_quality(&mut bytes, JPEG_QUALITY)
+        .write_image(&pixels, image.width, image.height, image::ExtendedColorType::Rgb8)
         .map_err(|e| ImageError::encode(path, e.to_string()))?;
     atomic_write(path, &bytes)
 }

@@ -8,7 +8,7 @@ use glint_core::random::SampleStream;
 use glint_core::sampling::sample_cosine_hemisphere;
 use glint_core::{Frame, Ray, Vec2, Vec3};
 use glint_render::{RenderSettings, Schedule, World};
-use glint_scene::Mesh;
+use glint_scene::{Mesh, Scene};
 use rayon::prelude::*;
 use std::io::Write;
 
@@ -259,36 +259,61 @@ fn whitted(a: &BenchWhittedArgs) -> Result<()> {
         Some(p) => input::load(Some(p), false)?,
         None => glint_formats::load_scene_str(WHITTED_BENCH_SCENE, Path::new("."), "<whitted-bench.toml>")?.scene,
     };
+    let sky_scene = match &a.sky {
+        Some(p) => {
+            let loaded =
+                glint_formats::sky::load_sky(&glint_formats::sky::SkySource::Path(p.clone()), &Default::default())
+                    .context("--sky")?;
+            Some(Scene { sky: loaded.sky, ..scene.clone() })
+        }
+        None => None,
+    };
     pool.install(|| -> Result<()> {
-        let world = World::new(scene);
-        let mut settings = RenderSettings::from_defaults(&world.scene.render);
+        let mut settings = RenderSettings::from_defaults(&scene.render);
         settings.width = a.width;
         settings.height = a.height;
         settings.schedule = match a.schedule {
             ScheduleArg::Stealing => Schedule::WorkStealing,
             ScheduleArg::Static => Schedule::Static,
         };
-        glint_render::render(&world, &settings)?; // warm-up
-        let mut ms = Vec::new();
-        let mut rays = 0;
-        for _ in 0..a.frames {
-            let (_, stats) = glint_render::render(&world, &settings)?;
-            ms.push(stats.elapsed.as_secs_f64() * 1e3);
-            rays = stats.rays.total();
+        let mut worlds = vec![World::new(scene)];
+        if let Some(s) = sky_scene {
+            worlds.push(World::new(s));
         }
-        let med = median(&mut ms);
-        out!(
-            "whitted {}x{}, {} threads, {:?}: median {:.2} ms/frame ({:.1} fps), {:.1} Mrays/s, {} rays/frame",
-            a.width,
-            a.height,
-            rayon::current_num_threads(),
-            settings.schedule,
-            med,
-            1e3 / med,
-            rays as f64 / med / 1e3,
-            rays
-        );
-        out!("ms_per_frame_median={med:.3}");
+        for w in &worlds {
+            glint_render::render(w, &settings)?; // warm-up
+        }
+        // Frames of the variants interleaved, so that both see the same machine load.
+        let mut ms = vec![Vec::new(); worlds.len()];
+        let mut rays = vec![0; worlds.len()];
+        for _ in 0..a.frames {
+            for (i, w) in worlds.iter().enumerate() {
+                let (_, stats) = glint_render::render(w, &settings)?;
+                ms[i].push(stats.elapsed.as_secs_f64() * 1e3);
+                rays[i] = stats.rays.total();
+            }
+        }
+        let mut medians = Vec::new();
+        for (i, times) in ms.iter_mut().enumerate() {
+            let med = median(times);
+            medians.push(med);
+            let label = if i == 0 { "scene sky" } else { "--sky map" };
+            out!(
+                "whitted {}x{}, {} threads, {:?}, {label}: median {:.2} ms/frame ({:.1} fps), {:.1} Mrays/s, {} rays/frame",
+                a.width,
+                a.height,
+                rayon::current_num_threads(),
+                settings.schedule,
+                med,
+                1e3 / med,
+                rays[i] as f64 / med / 1e3,
+                rays[i]
+            );
+        }
+        if let [base, sky] = medians[..] {
+            out!("sky_map_cost_ratio={:.4}", sky / base);
+        }
+        out!("ms_per_frame_median={:.3}", medians[0]);
         Ok(())
     })
 }

@@ -2,6 +2,7 @@
 
 mod bench;
 mod render;
+mod sky;
 
 use crate::cli::{Cli, Command, RenderArgs};
 use anyhow::Result;
@@ -11,5 +12,6 @@ pub fn run(cli: Cli) -> Result<()> {
         None => render::run(&RenderArgs { output: "glint.png".into(), tonemap: "clamp".into(), ..Default::default() }),
         Some(Command::Render(args)) => render::run(&args),
         Some(Command::Bench(b)) => bench::run(b),
+        Some(Command::Sky(s)) => sky::run(s),
     }
 }

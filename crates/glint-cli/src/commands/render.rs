@@ -1,12 +1,13 @@
 //! `glint render`: load, apply command-line overrides, render, write atomically.
 
-use crate::cli::RenderArgs;
+use crate::cli::{FlipArg, RenderArgs, SkyArgs};
 use crate::input::{self, parse_vec3};
 use crate::progress::LazyProgress;
 use anyhow::{Context, Result, bail};
+use glint_formats::sky::{FaceTransform, SkyLoadOptions, SkySource, load_sky};
 use glint_image::{PngOptions, ToneMap};
 use glint_render::{RenderSettings, World};
-use glint_scene::{Camera, Fov, Scene};
+use glint_scene::{Camera, Fov, Scene, Sky, SkyTransform};
 use std::path::Path;
 
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -61,7 +62,67 @@ pub fn apply_overrides(scene: &mut Scene, args: &RenderArgs) -> Result<()> {
         cam.fov = Fov::Vertical(f);
     }
     scene.camera = cam;
+    apply_sky(scene, &args.sky, args.input.as_deref())?;
     scene.validate().context("after applying the command-line options")?;
+    Ok(())
+}
+
+/// `--sky` replaces the sky; `--sky-rotation` / `--sky-intensity` also adjust the scene's own.
+fn apply_sky(scene: &mut Scene, args: &SkyArgs, input: Option<&Path>) -> Result<()> {
+    if let Some(i) = args.sky_intensity
+        && !(i.is_finite() && i >= 0.0)
+    {
+        bail!("--sky-intensity {i}: must be a finite number >= 0");
+    }
+    if let Some(r) = args.sky_rotation
+        && !r.is_finite()
+    {
+        bail!("--sky-rotation {r}: must be a finite number of degrees");
+    }
+    if let Some(path) = &args.sky {
+        let flip = args.sky_flip.unwrap_or(FlipArg::None);
+        let options = SkyLoadOptions {
+            all_faces: FaceTransform {
+                flip_horizontal: matches!(flip, FlipArg::Horizontal | FlipArg::Both),
+                flip_vertical: matches!(flip, FlipArg::Vertical | FlipArg::Both),
+                rotate_degrees: 0,
+            },
+            rotation_degrees: args.sky_rotation.unwrap_or(0.0),
+            intensity: args.sky_intensity.unwrap_or(1.0),
+            ..SkyLoadOptions::default()
+        };
+        let loaded = load_sky(&SkySource::Path(path.clone()), &options).context("--sky")?;
+        for w in &loaded.warnings {
+            eprintln!("warning: {w}");
+        }
+        scene.sky = loaded.sky;
+        // A model file comes with a generic scene around it: let the new sky light it.
+        let is_scene_file = input.is_some_and(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml")));
+        if !is_scene_file {
+            scene.sky_ambient = true;
+        }
+    } else {
+        if args.sky_flip.is_some() {
+            bail!("--sky-flip applies to the images of --sky PATH");
+        }
+        let (rotation, intensity) = (args.sky_rotation, args.sky_intensity);
+        match &mut scene.sky {
+            Sky::CubeMap { transform, .. } | Sky::LatLong { transform, .. } => {
+                *transform = SkyTransform::new(
+                    rotation.unwrap_or(transform.rotation_degrees),
+                    transform.intensity * intensity.unwrap_or(1.0),
+                );
+            }
+            Sky::Colour(c) => *c *= intensity.unwrap_or(1.0),
+            Sky::Gradient { zenith, horizon, ground } => {
+                let k = intensity.unwrap_or(1.0);
+                (*zenith, *horizon, *ground) = (*zenith * k, *horizon * k, *ground * k);
+            }
+        }
+    }
+    if args.sky_ambient {
+        scene.sky_ambient = true;
+    }
     Ok(())
 }
 

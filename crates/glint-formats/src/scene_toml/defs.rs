@@ -59,8 +59,22 @@ pub(crate) struct CameraDef {
 #[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub(crate) enum SkyKind {
+    #[serde(alias = "color")]
     Colour,
     Gradient,
+    #[serde(alias = "cube_map", alias = "cube")]
+    Cubemap,
+    #[serde(alias = "lat_long", alias = "equirectangular")]
+    Latlong,
+}
+
+#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub(crate) enum Flip {
+    None,
+    Horizontal,
+    Vertical,
+    Both,
 }
 
 #[derive(Deserialize, Debug)]
@@ -73,6 +87,27 @@ pub(crate) struct SkyDef {
     pub zenith: Option<Spanned<V3>>,
     pub horizon: Option<Spanned<V3>>,
     pub ground: Option<Spanned<V3>>,
+    /// An image (cross, strip or lat-long) or a folder of six faces.
+    pub path: Option<Spanned<String>>,
+    /// Six face images, in the order px, nx, py, ny, pz, nz.
+    pub faces: Option<Spanned<Vec<Spanned<String>>>>,
+    /// Flip every face as it is read.
+    pub flip: Option<Spanned<Flip>>,
+    /// Per-face fixes: `[sky.face.py] rotate = 90`.
+    pub face: Option<Spanned<std::collections::BTreeMap<String, Spanned<FaceDef>>>>,
+    /// Degrees about +Y.
+    pub rotation: Option<Spanned<Num>>,
+    pub intensity: Option<Spanned<Num>>,
+    /// The sky is the scene's ambient light (by normal, through its irradiance).
+    pub ambient: Option<bool>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FaceDef {
+    pub flip: Option<Spanned<Flip>>,
+    /// Clockwise degrees: 0, 90, 180 or 270.
+    pub rotate: Option<Spanned<u32>>,
 }
 
 #[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq)]
@@ -111,6 +146,8 @@ pub(crate) struct MaterialDef {
     pub ior: Option<Spanned<Num>>,
     pub fresnel: Option<bool>,
     pub emission: Option<Spanned<V3>>,
+    /// Fresnel (Schlick) reflection with this reflectance at normal incidence.
+    pub f0: Option<Spanned<Scale>>,
 }
 
 #[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq)]

@@ -494,3 +494,79 @@ fn the_documented_example_loads() {
     assert_eq!(l.scene.textures.len(), 2);
     assert!(l.warnings.is_empty(), "{:?}", l.warnings);
 }
+
+const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data");
+
+fn parse_in_data(text: &str) -> Result<Loaded, FormatError> {
+    load_scene_str(text, Path::new(DATA), "test.toml")
+}
+
+#[test]
+fn map_skies_load_from_folders_crosses_and_latlong_files() {
+    let text = format!(
+        "{BASE}\n[sky]\npath = \"skyboxes/humus_magnum_512\"\nflip = \"vertical\"\nrotation = 30\nintensity = 2\nambient = true\n"
+    );
+    let l = parse_in_data(&text).expect("six faces");
+    match &l.scene.sky {
+        Sky::CubeMap { map, transform } => {
+            assert_eq!(map.face_size(), 512);
+            assert_eq!((transform.rotation_degrees, transform.intensity), (30.0, 2.0));
+        }
+        other => panic!("expected a cube map, got {other:?}"),
+    }
+    assert!(l.scene.sky_ambient);
+    let text = format!("{BASE}\n[sky]\ntype = \"latlong\"\npath = \"envmaps/overcast_soil_puresky_1k.hdr\"\n");
+    let l = parse_in_data(&text).expect("lat-long");
+    assert!(matches!(&l.scene.sky, Sky::LatLong { map, .. } if map.width() == 1024 && map.height() == 512));
+    assert!(!l.scene.sky_ambient);
+    // Explicit faces, with a per-face fix.
+    let dir = "skyboxes/hipshot_miramar_1024";
+    let faces = ["right", "left", "up", "down", "front", "back"].map(|f| format!("\"{dir}/{f}.png\"")).join(", ");
+    let text = format!("{BASE}\n[sky]\nfaces = [{faces}]\n[sky.face.ny]\nrotate = 180\n");
+    assert!(matches!(parse_in_data(&text).expect("explicit faces").scene.sky, Sky::CubeMap { .. }));
+}
+
+#[test]
+fn bad_map_skies_are_rejected_at_their_line() {
+    let cases: [(&str, &str, &str); 9] = [
+        ("path = \"skyboxes/cross/humus_storforsen4_cross.jpg\"\nfaces = [\"a\"]", "faces", "not both"),
+        ("faces = [\"envmaps/venice_sunset_1k.hdr\"]", "faces", "6 images"),
+        ("path = \"skyboxes/humus_magnum_512\"\n[sky.face.top]\nrotate = 90", "[sky.face.top]", "unknown face"),
+        ("path = \"skyboxes/humus_magnum_512\"\n[sky.face.py]\nrotate = 45", "rotate = 45", "0, 90, 180 or 270"),
+        ("type = \"latlong\"\npath = \"skyboxes/humus_magnum_512\"", "type = \"latlong\"", "does not match"),
+        ("path = \"envmaps/venice_sunset_1k.hdr\"\nflip = \"vertical\"", "flip", "lat-long"),
+        ("path = \"no/such/sky.hdr\"", "no/such", "not found"),
+        ("colour = [1, 1, 1]\nrotation = 20", "rotation", "does not apply"),
+        ("path = \"envmaps/venice_sunset_1k.hdr\"\nintensity = -1", "intensity", "negative"),
+    ];
+    for (sky, needle, message) in cases {
+        let text = format!("{BASE}\n[sky]\n{sky}\n");
+        let e = match parse_in_data(&text) {
+            Ok(_) => panic!("expected an error for:\n{sky}"),
+            Err(e) => e,
+        };
+        let msg = e.to_string();
+        assert!(msg.contains(message), "{sky}: {msg}");
+        if !message.contains("not found") {
+            assert_at(&e, line_of(&text, needle));
+        } else {
+            assert!(msg.contains(&format!("test.toml:{}", line_of(&text, needle))), "{msg}");
+        }
+    }
+}
+
+#[test]
+fn fresnel_f0_is_read_and_checked() {
+    let text = BASE.replace("colour = [0.8, 0.1, 0.1]", "colour = [0.8, 0.1, 0.1]\nf0 = 0.04");
+    assert_eq!(parse(&text).expect("f0").scene.materials[0].reflection_f0, Some(Rgb::splat(0.04)));
+    let text = BASE.replace("colour = [0.8, 0.1, 0.1]", "colour = [0.8, 0.1, 0.1]\nf0 = [1.0, 0.71, 0.29]");
+    assert_eq!(parse(&text).expect("gold").scene.materials[0].reflection_f0, Some(Rgb::new(1.0, 0.71, 0.29)));
+    for (extra, message) in
+        [("f0 = 1.5", "[0, 1]"), ("reflectivity = 0.5\nf0 = 0.04", "excludes"), ("f0 = [0.1, 0.2]", "3 numbers")]
+    {
+        let text = BASE.replace("colour = [0.8, 0.1, 0.1]", &format!("colour = [0.8, 0.1, 0.1]\n{extra}"));
+        let e = error(&text);
+        assert!(e.to_string().contains(message), "{extra}: {e}");
+        assert_at(&e, line_of(&text, "f0"));
+    }
+}

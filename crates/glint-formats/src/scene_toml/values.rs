@@ -107,7 +107,7 @@ impl<'de> Deserialize<'de> for V2 {
     }
 }
 
-/// `scale = s` (uniform) or `scale = [sx, sy, sz]`.
+/// `scale = s` (uniform) or `scale = [sx, sy, sz]`; also a grey or RGB value (`f0`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Scale(pub Vec3);
 
@@ -117,7 +117,7 @@ impl<'de> Deserialize<'de> for Scale {
         impl<'de> Visitor<'de> for V {
             type Value = Scale;
             fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a number or an array [sx, sy, sz]")
+                f.write_str("a number or an array of 3 numbers")
             }
             fn visit_f64<E: de::Error>(self, v: f64) -> Result<Scale, E> {
                 finite_f32(v).map(|s| Scale(Vec3::splat(s)))
@@ -129,7 +129,7 @@ impl<'de> Deserialize<'de> for Scale {
                 Ok(Scale(Vec3::splat(v as f32)))
             }
             fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Scale, A::Error> {
-                read_array::<A, 3>(seq, "[sx, sy, sz]").map(|a| Scale(Vec3::from_array(a)))
+                read_array::<A, 3>(seq, "an array").map(|a| Scale(Vec3::from_array(a)))
             }
         }
         d.deserialize_any(V)

@@ -1,0 +1,197 @@
+//! `glint sky convert` end to end: lat-long ↔ faces round trips, crosses, and bad input that
+//! fails cleanly without touching existing output.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)] // test code: a failure is the report
+
+use glint_image::{Image, metrics::psnr_srgb8};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn glint(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_glint")).args(args).current_dir(dir).output().expect("the binary runs")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("cli-sky-{name}"));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn shared(rel: &str) -> Option<PathBuf> {
+    let p = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared")).join(rel);
+    if p.exists() {
+        Some(p)
+    } else {
+        eprintln!("skipped: {} is not there", p.display());
+        None
+    }
+}
+
+fn ok(args: &[&str], dir: &Path) -> String {
+    let o = glint(args, dir);
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    stderr(&o)
+}
+
+fn read(path: &Path) -> Image {
+    glint_image::read_image(path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A smooth synthetic HDR lat-long map (values up to ~3), W × W/2.
+fn synthetic_latlong(width: u32) -> Image {
+    let height = width / 2;
+    let pixels: Vec<[f32; 3]> = (0..width * height)
+        .map(|i| {
+            let (u, v) = ((i % width) as f32 / width as f32, (i / width) as f32 / height as f32);
+            let phi = u * std::f32::consts::TAU;
+            let theta = v * std::f32::consts::PI;
+            [
+                0.6 + 0.5 * (2.0 * phi).sin() * theta.sin(),
+                0.5 + 0.4 * (3.0 * theta).cos(),
+                0.4 + 2.5 * (1.0 - v).powi(4) + 0.2 * phi.cos() * theta.sin(),
+            ]
+        })
+        .collect();
+    Image::from_rgb(width, height, &pixels)
+}
+
+#[test]
+fn latlong_to_faces_and_back_is_faithful() {
+    let d = scratch("roundtrip");
+    glint_image::write_hdr(&d.join("env.hdr"), &synthetic_latlong(256)).unwrap();
+    ok(&["sky", "convert", "env.hdr", "faces", "--to", "faces"], &d);
+    for name in ["px", "nx", "py", "ny", "pz", "nz"] {
+        let face = read(&d.join(format!("faces/{name}.hdr")));
+        assert_eq!((face.width, face.height), (128, 128), "{name}: faces of W/2");
+    }
+    ok(&["sky", "convert", "faces", "back.hdr", "--to", "latlong"], &d);
+    let (a, b) = (read(&d.join("env.hdr")), read(&d.join("back.hdr")));
+    assert_eq!((b.width, b.height), (256, 128));
+    let psnr = psnr_srgb8(&a, &b).unwrap();
+    println!("synthetic lat-long → faces → lat-long: {psnr:.1} dB");
+    assert!(psnr >= 35.0, "{psnr} dB");
+}
+
+#[test]
+fn real_hdr_maps_round_trip_through_faces() {
+    for name in ["venice_sunset_1k.hdr", "overcast_soil_puresky_1k.hdr"] {
+        let Some(env) = shared(&format!("data/envmaps/{name}")) else { return };
+        let d = scratch(&format!("real-{name}"));
+        let env = env.to_str().unwrap();
+        ok(&["sky", "convert", env, "faces", "--to", "faces"], &d);
+        assert_eq!(read(&d.join("faces/pz.hdr")).width, 512);
+        ok(&["sky", "convert", "faces", "back.hdr", "--to", "latlong"], &d);
+        let psnr = psnr_srgb8(&read(Path::new(env)), &read(&d.join("back.hdr"))).unwrap();
+        println!("{name} → faces → lat-long: {psnr:.1} dB");
+        assert!(psnr >= 35.0, "{name}: {psnr} dB");
+    }
+}
+
+#[test]
+fn a_cross_becomes_faces_and_back() {
+    let d = scratch("cross");
+    glint_image::write_hdr(&d.join("env.hdr"), &synthetic_latlong(64)).unwrap();
+    ok(&["sky", "convert", "env.hdr", "cross.exr", "--to", "cross"], &d);
+    let cross = read(&d.join("cross.exr"));
+    assert_eq!((cross.width, cross.height), (4 * 32, 3 * 32));
+    ok(&["sky", "convert", "cross.exr", "faces", "--to", "faces"], &d);
+    // Faces keep the input's format (EXR) and are the cross's cells, bit for bit.
+    let pz = read(&d.join("faces/pz.exr"));
+    let (r, rc) = (pz.channel("R").unwrap(), cross.channel("R").unwrap());
+    for y in 0..32 {
+        for x in 0..32 {
+            assert_eq!(r[y * 32 + x], rc[(32 + y) * 128 + 32 + x]);
+        }
+    }
+    // Vertical cross and strips, and back to a horizontal cross: the same pixels.
+    ok(&["sky", "convert", "faces", "v.exr", "--to", "vertical-cross"], &d);
+    ok(&["sky", "convert", "v.exr", "s.exr", "--to", "strip"], &d);
+    ok(&["sky", "convert", "s.exr", "again.exr", "--to", "cross"], &d);
+    assert_eq!(read(&d.join("again.exr")), cross);
+}
+
+#[test]
+fn the_real_cross_converts_to_png_faces() {
+    let Some(cross) = shared("data/skyboxes/cross/humus_storforsen4_cross.jpg") else { return };
+    let d = scratch("storforsen");
+    let msg = ok(&["sky", "convert", cross.to_str().unwrap(), "faces", "--to", "faces", "--size", "256"], &d);
+    assert!(!msg.contains("warning"), "{msg}");
+    for name in ["px", "nx", "py", "ny", "pz", "nz"] {
+        let face = read(&d.join(format!("faces/{name}.png")));
+        assert_eq!((face.width, face.height), (256, 256));
+    }
+    // Sky above, ground below.
+    let mean = |img: &Image| img.channel("G").unwrap().iter().sum::<f32>() / img.pixel_count() as f32;
+    assert!(mean(&read(&d.join("faces/py.png"))) > mean(&read(&d.join("faces/ny.png"))));
+}
+
+#[test]
+fn an_upside_down_set_is_flagged_and_flip_fixes_it() {
+    let Some(set) = shared("data/skyboxes/humus_magnum_512") else { return };
+    let d = scratch("magnum");
+    let set = set.to_str().unwrap();
+    let msg = ok(&["sky", "convert", set, "a.png", "--to", "cross", "--size", "64"], &d);
+    assert!(msg.contains("warning") && msg.contains("flip = \"vertical\""), "{msg}");
+    let msg = ok(&["sky", "convert", set, "b.png", "--to", "cross", "--size", "64", "--flip", "vertical"], &d);
+    assert!(!msg.contains("warning"), "{msg}");
+    let msg = ok(&["sky", "convert", "b.png", "c.png", "--to", "cross", "-q"], &d);
+    assert!(msg.is_empty(), "{msg}");
+}
+
+#[test]
+fn ldr_output_of_hdr_warns_about_clipping() {
+    let d = scratch("clip");
+    glint_image::write_hdr(&d.join("env.hdr"), &synthetic_latlong(32)).unwrap();
+    let msg = ok(&["sky", "convert", "env.hdr", "env.png", "--to", "latlong", "--size", "8"], &d);
+    assert!(msg.contains("clipped"), "{msg}");
+    assert_eq!(read(&d.join("env.png")).width, 16);
+}
+
+/// Every failing conversion: non-zero exit, a message naming the problem, existing output
+/// untouched, no stray files.
+#[test]
+fn bad_input_fails_cleanly_without_touching_the_output() {
+    let d = scratch("bad");
+    std::fs::write(d.join("out.png"), b"precious").unwrap();
+    std::fs::create_dir(d.join("faces")).unwrap();
+    std::fs::write(d.join("faces/right.png"), b"mine").unwrap();
+    std::fs::write(d.join("corrupt.hdr"), b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 8 +X 16\n\x02\x02").unwrap();
+    glint_image::write_hdr(&d.join("square.hdr"), &Image::from_rgb(4, 4, &[[1.0; 3]; 16])).unwrap();
+    glint_image::write_hdr(&d.join("env.hdr"), &synthetic_latlong(16)).unwrap();
+    std::fs::create_dir(d.join("five")).unwrap();
+    for name in ["px", "nx", "py", "ny", "pz"] {
+        glint_image::write_hdr(&d.join(format!("five/{name}.hdr")), &Image::from_rgb(2, 2, &[[1.0; 3]; 4])).unwrap();
+    }
+    let cases: &[(&[&str], &str)] = &[
+        (&["sky", "convert", "missing.hdr", "out.png", "--to", "latlong"], "missing.hdr"),
+        (&["sky", "convert", "corrupt.hdr", "out.png", "--to", "latlong"], "corrupt.hdr"),
+        (&["sky", "convert", "square.hdr", "out.png", "--to", "latlong"], "4x4"),
+        (&["sky", "convert", "five", "out.png", "--to", "cross"], "missing cube face nz"),
+        (&["sky", "convert", "env.hdr", "out.png", "--to", "cross", "--flip", "vertical"], "lat-long"),
+        (&["sky", "convert", "env.hdr", "out.png", "--to", "latlong", "--size", "0"], "out.png"),
+        (&["sky", "convert", "env.hdr", "out.png", "--to", "faces"], "not a folder"),
+        (&["sky", "convert", "env.hdr", "faces", "--to", "faces"], "right.png"),
+        (&["sky", "convert", "env.hdr", "out.tga", "--to", "cross"], "out.tga"),
+        (&["sky", "convert", "env.hdr", "no/such/dir/out.png", "--to", "cross"], "out.png"),
+        (&["sky", "convert", "env.hdr", "out.png", "--to", "sphere"], "sphere"),
+    ];
+    for (args, needle) in cases {
+        let o = glint(args, &d);
+        let msg = stderr(&o);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(msg.contains(needle), "{args:?}: message does not name {needle:?}: {msg}");
+        assert!(!msg.contains("panicked"), "{args:?} panicked: {msg}");
+        assert_eq!(std::fs::read(d.join("out.png")).unwrap(), b"precious", "{args:?} touched out.png");
+        assert_eq!(std::fs::read(d.join("faces/right.png")).unwrap(), b"mine", "{args:?} touched faces/");
+    }
+    let mut left: Vec<String> =
+        std::fs::read_dir(&d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into()).collect();
+    left.sort();
+    assert_eq!(left, ["corrupt.hdr", "env.hdr", "faces", "five", "out.png", "square.hdr"]);
+    assert_eq!(std::fs::read_dir(d.join("faces")).unwrap().count(), 1);
+}
