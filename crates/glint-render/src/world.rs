@@ -12,7 +12,7 @@
 use glint_accel::{BuildOptions, MeshBvh, SphereSet, Tlas, primitives};
 use glint_core::float::gamma;
 use glint_core::{Affine3A, Bounds3, Mat3, Ray, Rgb, Vec2, Vec3, float::offset_ray_origin};
-use glint_scene::{IrradianceSh, Material, Mesh, Scene, Shape, Sky, Texture};
+use glint_scene::{IrradianceSh, Material, Mesh, Object, Scene, Shape, Sky, Texture};
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -133,11 +133,26 @@ pub struct World {
     any_transparent: bool,
     /// The sky's irradiance, when the scene takes its ambient light from the sky.
     sky_irradiance: Option<IrradianceSh>,
+    /// Curvature (1 / radius in world units) of each object, for ray cones: spheres by their
+    /// smallest scaled radius, planes 0, meshes 0 (treated as locally flat).
+    curvature: Vec<f32>,
     pub stats: WorldStats,
 }
 
 /// Up to this many untransformed spheres are tested as a vector set; more go into the TLAS.
 const SPHERE_SET_LIMIT: usize = 16;
+
+/// 1 / radius for spheres (their smallest scaled radius), 0 for planes and meshes.
+fn object_curvature(o: &Object) -> f32 {
+    match o.shape {
+        Shape::Sphere { radius, .. } => {
+            let m = o.world_from_object.matrix3;
+            let scale = m.x_axis.length().min(m.y_axis.length()).min(m.z_axis.length());
+            1.0 / (radius * scale).max(f32::MIN_POSITIVE)
+        }
+        Shape::Plane { .. } | Shape::Mesh(_) => 0.0,
+    }
+}
 
 /// Split the instances between the sphere set and the top-level BVH.
 fn top_level(instances: &[Instance], blas: &[MeshBvh]) -> (Tlas, SphereSet, Vec<u32>) {
@@ -220,6 +235,7 @@ impl World {
         let (tlas, spheres, sphere_instances) = top_level(&instances, &blas);
         let any_transparent = scene.materials.iter().any(Material::is_transparent);
         let sky_irradiance = scene.sky_ambient.then(|| scene.sky.irradiance_sh());
+        let curvature = scene.objects.iter().map(object_curvature).collect();
         let stats = WorldStats {
             triangles: meshes.iter().map(|m| m.triangles.len()).sum(),
             instances: instances.len(),
@@ -240,6 +256,7 @@ impl World {
             instance_of_object,
             any_transparent,
             sky_irradiance,
+            curvature,
             stats,
         }
     }
@@ -250,6 +267,7 @@ impl World {
         let inst = &self.instances[i];
         self.instances[i] = Instance::new(inst.shape, inst.object, inst.material, world_from_object, inst.opaque);
         self.scene.objects[object].world_from_object = world_from_object;
+        self.curvature[object] = object_curvature(&self.scene.objects[object]);
         self.rebuild_top_level();
         true
     }
@@ -276,6 +294,12 @@ impl World {
 
     pub fn sky(&self) -> &Sky {
         &self.scene.sky
+    }
+
+    /// Curvature of object `object` (see the field); 0 for unknown objects.
+    #[inline]
+    pub fn curvature(&self, object: u32) -> f32 {
+        self.curvature.get(object as usize).copied().unwrap_or(0.0)
     }
 
     /// I_a for a surface with unit normal `n`: the scene's ambient colour, or with

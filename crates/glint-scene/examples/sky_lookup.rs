@@ -8,7 +8,7 @@ use glint_scene::{Camera, CubeMap, Fov, LatLongMap};
 fn main() {
     let kind = std::env::args().nth(1).unwrap_or_else(|| "cube".into());
     let pattern = |d: Vec3| Rgb::new(d.x.abs(), d.y.abs(), d.z.abs());
-    let cube = CubeMap::from_fn(64, pattern);
+    let cube = CubeMap::from_fn(256, pattern);
     let latlong = LatLongMap::from_fn(64, pattern);
     let cam =
         Camera { position: Vec3::ZERO, forward: Vec3::new(0.3, 0.1, -1.0), up: Vec3::Y, fov: Fov::Vertical(60.0) };
@@ -19,12 +19,22 @@ fn main() {
     let mut sum = Rgb::ZERO;
     for d in &dirs {
         sum += match kind.as_str() {
-            "cube" => cube.lookup(*d),
-            "cube_mip" => cube.lookup_filtered(*d, cone),
+            "cube" => probe_cube(&cube, *d),
+            "cube_mip" => probe_cube_mip(&cube, *d, cone),
             "latlong" => latlong.lookup(*d),
             "latlong_mip" => latlong.lookup_filtered(*d, cone),
             _ => *d,
         };
     }
     println!("{kind}: {sum}");
+}
+
+#[inline(never)]
+pub fn probe_cube(m: &CubeMap, d: Vec3) -> Rgb {
+    m.lookup(d)
+}
+
+#[inline(never)]
+pub fn probe_cube_mip(m: &CubeMap, d: Vec3, cone: f32) -> Rgb {
+    m.lookup_filtered(d, cone)
 }

@@ -5,7 +5,7 @@
 //! (PNG/JPEG), Radiance .hdr or OpenEXR for HDR inputs, as the input was.
 
 use crate::cli::{FlipArg, SkyCommand, SkyConvertArgs, SkyLayoutArg};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use glint_formats::{FaceTransform, SkyLayout, SkyLoadOptions, SkyMapRef, SkySource, SkyWriteOptions};
 use std::path::Path;
 use std::time::Instant;
@@ -50,13 +50,14 @@ fn convert(args: &SkyConvertArgs) -> Result<()> {
     let start = Instant::now();
     let options = SkyLoadOptions { all_faces: args.flip.map_or(FaceTransform::IDENTITY, flip), ..Default::default() };
     // glint-formats' errors start with the file or folder they are about.
-    let loaded = glint_formats::load_sky(&SkySource::Path(args.input.clone()), &options)?;
+    // The texels as read (not a map's RGB9E5 storage): a change of layout copies them exactly.
+    let loaded = glint_formats::sky::load_sky_texels(&SkySource::Path(args.input.clone()), &options)?;
     if !args.quiet {
         for w in &loaded.warnings {
             eprintln!("glint: warning: {w}");
         }
     }
-    let map = SkyMapRef::from_sky(&loaded.sky).context("the input is not an image sky (a bug)")?;
+    let map = SkyMapRef::Texels(&loaded.texels);
     let face_extension = loaded.files.first().map_or("png", |f| face_extension(f)).to_string();
     let write_options = SkyWriteOptions { size: args.size, face_extension };
     let to = layout(args.to);

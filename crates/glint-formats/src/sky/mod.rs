@@ -104,17 +104,55 @@ pub struct LoadedSky {
     pub warnings: Vec<String>,
 }
 
+/// The texels of a sky as read from its files, before a map is built from them (the map
+/// stores RGB9E5; these keep the files' f32 values, for exact layout conversions).
+#[derive(Clone, Debug)]
+pub enum SkyTexels {
+    /// Six faces in [`CubeFace::ALL`] order, transforms applied.
+    Faces([TextureImage; 6]),
+    /// An equirectangular image.
+    LatLong(TextureImage),
+}
+
+/// [`SkyTexels`] read from files, and where they came from.
+#[derive(Clone, Debug)]
+pub struct LoadedTexels {
+    pub texels: SkyTexels,
+    pub layout: SkyLayout,
+    pub files: Vec<PathBuf>,
+    /// The file or folder errors and warnings name.
+    pub about: PathBuf,
+    pub warnings: Vec<String>,
+}
+
 /// Reads a sky: a folder of six faces, six listed faces, or one image (cross, strip or
 /// lat-long, by aspect). Face transforms are applied after slicing, before the cube map is
 /// built; they are an error with a lat-long map. Cube maps get a seam check (see
 /// [`seam_mismatch`]) whose findings are warnings.
 pub fn load_sky(source: &SkySource, options: &SkyLoadOptions) -> Result<LoadedSky, FormatError> {
+    let loaded = load_sky_texels(source, options)?;
+    let transform = SkyTransform::new(options.rotation_degrees, options.intensity);
+    let LoadedTexels { texels, layout, files, about, warnings } = loaded;
+    let sky = match texels {
+        SkyTexels::LatLong(texture) => {
+            let map = LatLongMap::from_image(texture).map_err(|source| FormatError::Invalid { file: about, source })?;
+            Sky::LatLong { map: Arc::new(map), transform }
+        }
+        SkyTexels::Faces(faces) => {
+            let map = CubeMap::from_faces(faces).map_err(|source| FormatError::Invalid { file: about, source })?;
+            Sky::CubeMap { map: Arc::new(map), transform }
+        }
+    };
+    Ok(LoadedSky { sky, layout, files, warnings })
+}
+
+/// As [`load_sky`], stopping before the map is built (rotation and intensity are not applied).
+pub fn load_sky_texels(source: &SkySource, options: &SkyLoadOptions) -> Result<LoadedTexels, FormatError> {
     let named = match source {
         SkySource::Path(path) => path.clone(),
         SkySource::Faces(paths) => paths[0].clone(),
     };
     check_options(&named, options)?;
-    let transform = SkyTransform::new(options.rotation_degrees, options.intensity);
     let mut warnings = Vec::new();
     let (faces, layout, files, about) = match source {
         SkySource::Path(path) if path.is_dir() => {
@@ -134,11 +172,15 @@ pub fn load_sky(source: &SkySource, options: &SkyLoadOptions) -> Result<LoadedSk
                 }
                 check_side(path, n)?;
                 let texture = texture_from_image(path, &image, &mut warnings)?;
-                drop(image);
-                let map = LatLongMap::from_image(texture)
+                LatLongMap::check_image(&texture)
                     .map_err(|source| FormatError::Invalid { file: path.clone(), source })?;
-                let sky = Sky::LatLong { map: Arc::new(map), transform };
-                return Ok(LoadedSky { sky, layout, files: vec![path.clone()], warnings });
+                return Ok(LoadedTexels {
+                    texels: SkyTexels::LatLong(texture),
+                    layout,
+                    files: vec![path.clone()],
+                    about: path.clone(),
+                    warnings,
+                });
             }
             check_side(path, n)?;
             let faces = layout::slice_faces(&image, layout, n).ok_or_else(|| no_rgb(path, &image))?;
@@ -153,12 +195,11 @@ pub fn load_sky(source: &SkySource, options: &SkyLoadOptions) -> Result<LoadedSk
         index += 1;
         transforms.iter().filter(|t| !t.is_identity()).fold(face, |face, t| t.apply(&face))
     });
+    CubeMap::check_faces(&faces).map_err(|source| FormatError::Invalid { file: about.clone(), source })?;
     if let Some(warning) = seam_warning(&faces, options) {
         warnings.push(format!("{}: {warning}", about.display()));
     }
-    let map = CubeMap::from_faces(faces).map_err(|source| FormatError::Invalid { file: about.clone(), source })?;
-    let sky = Sky::CubeMap { map: Arc::new(map), transform };
-    Ok(LoadedSky { sky, layout, files, warnings })
+    Ok(LoadedTexels { texels: SkyTexels::Faces(faces), layout, files, about, warnings })
 }
 
 fn check_options(path: &Path, options: &SkyLoadOptions) -> Result<(), FormatError> {

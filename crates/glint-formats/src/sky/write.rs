@@ -22,6 +22,9 @@ use std::path::{Path, PathBuf};
 pub enum SkyMapRef<'a> {
     Cube(&'a CubeMap),
     LatLong(&'a LatLongMap),
+    /// Texels as read from files ([`crate::sky::load_sky_texels`]): copied exactly when the
+    /// layout changes but the size does not; a map is built from them to resample.
+    Texels(&'a crate::sky::SkyTexels),
 }
 
 impl<'a> SkyMapRef<'a> {
@@ -35,11 +38,30 @@ impl<'a> SkyMapRef<'a> {
         }
     }
 
-    /// Trilinear lookup for a footprint of `cone_angle` radians.
+    /// Trilinear lookup for a footprint of `cone_angle` radians (`Texels` build their map
+    /// first: see [`SkyMapRef::with_map`]).
     pub fn lookup_filtered(self, dir: Vec3, cone_angle: f32) -> Rgb {
         match self {
             SkyMapRef::Cube(m) => m.lookup_filtered(dir, cone_angle),
             SkyMapRef::LatLong(m) => m.lookup_filtered(dir, cone_angle),
+            SkyMapRef::Texels(_) => self.with_map(|m| m.lookup_filtered(dir, cone_angle)),
+        }
+    }
+
+    /// Calls `f` with a map (built from texels when needed; texels from
+    /// [`crate::sky::load_sky_texels`] are already checked, so the fallback, an empty black
+    /// map, is never reached with them).
+    fn with_map<R>(self, f: impl FnOnce(SkyMapRef<'_>) -> R) -> R {
+        match self {
+            SkyMapRef::Texels(crate::sky::SkyTexels::Faces(faces)) => match CubeMap::from_faces(faces.clone()) {
+                Ok(m) => f(SkyMapRef::Cube(&m)),
+                Err(_) => f(SkyMapRef::LatLong(&LatLongMap::from_fn(1, |_| Rgb::ZERO))),
+            },
+            SkyMapRef::Texels(crate::sky::SkyTexels::LatLong(image)) => match LatLongMap::from_image(image.clone()) {
+                Ok(m) => f(SkyMapRef::LatLong(&m)),
+                Err(_) => f(SkyMapRef::LatLong(&LatLongMap::from_fn(1, |_| Rgb::ZERO))),
+            },
+            map => f(map),
         }
     }
 
@@ -50,6 +72,8 @@ impl<'a> SkyMapRef<'a> {
         match self {
             SkyMapRef::Cube(m) => m.face_size(),
             SkyMapRef::LatLong(m) => m.height(),
+            SkyMapRef::Texels(crate::sky::SkyTexels::Faces(f)) => f[0].width,
+            SkyMapRef::Texels(crate::sky::SkyTexels::LatLong(i)) => i.height,
         }
     }
 }
@@ -200,10 +224,11 @@ fn warn_clipped(out: &Path, clipped: usize, total: usize, warnings: &mut Vec<Str
 /// resampled with each texel's angular width ((2/n)·m^1.5, m the major component of the unit
 /// direction) as the footprint.
 fn cube_faces(map: SkyMapRef<'_>, n: u32) -> [TextureImage; 6] {
-    if let SkyMapRef::Cube(cube) = map
-        && cube.face_size() == n
-    {
-        return CubeFace::ALL.map(|f| cube.face_image(f));
+    match map {
+        SkyMapRef::Cube(cube) if cube.face_size() == n => return CubeFace::ALL.map(|f| cube.face_image(f)),
+        SkyMapRef::Texels(crate::sky::SkyTexels::Faces(faces)) if faces[0].width == n => return faces.clone(),
+        SkyMapRef::Texels(_) => return map.with_map(|m| cube_faces(m, n)),
+        _ => {}
     }
     let nf = n as f32;
     CubeFace::ALL.map(|face| {
@@ -219,10 +244,11 @@ fn cube_faces(map: SkyMapRef<'_>, n: u32) -> [TextureImage; 6] {
 /// A lat-long map of height `h` (width 2h): copied when the source is one of that size, else
 /// resampled with the texel height π/h as the footprint (the texel's longer side everywhere).
 fn latlong(map: SkyMapRef<'_>, h: u32) -> TextureImage {
-    if let SkyMapRef::LatLong(source) = map
-        && source.height() == h
-    {
-        return source.image();
+    match map {
+        SkyMapRef::LatLong(source) if source.height() == h => return source.image(),
+        SkyMapRef::Texels(crate::sky::SkyTexels::LatLong(image)) if image.height == h => return image.clone(),
+        SkyMapRef::Texels(_) => return map.with_map(|m| latlong(m, h)),
+        _ => {}
     }
     let (w, hf) = (2 * h, h as f32);
     let cone = PI / hf;

@@ -40,11 +40,16 @@ pub struct FirstHit {
     pub position: Vec3,
 }
 
+/// One ray of the tree, with its ray cone (Akenine-Möller et al. 2021): the footprint's width
+/// at the ray origin and its spread angle, both in world units/radians. Sky lookups filter over
+/// the spread; curved mirrors widen it.
 #[derive(Clone, Copy)]
 struct Branch {
     ray: Ray,
     weight: Rgb,
     depth: u32,
+    width: f32,
+    spread: f32,
 }
 
 /// Reusable per-thread state (the branch stack).
@@ -61,12 +66,12 @@ pub struct WhittedParams {
 
 impl Tracer {
     /// Radiance along a primary ray, and its first hit.
-    /// `cone` is the ray's footprint (angular width in radians) for sky filtering.
+    /// `cone` is the primary ray's footprint (angular width in radians) for sky filtering.
     pub fn trace(&mut self, world: &World, ray: Ray, cone: f32, params: &WhittedParams) -> (Rgb, Option<FirstHit>) {
         let mut colour = Rgb::ZERO;
         let mut first = None;
         self.stack.clear();
-        self.stack.push(Branch { ray, weight: Rgb::ONE, depth: 0 });
+        self.stack.push(Branch { ray, weight: Rgb::ONE, depth: 0, width: 0.0, spread: cone });
         while let Some(b) = self.stack.pop() {
             if b.depth == 0 {
                 self.counts.primary += 1;
@@ -74,7 +79,7 @@ impl Tracer {
                 self.counts.secondary += 1;
             }
             let Some(hit) = world.intersect(&b.ray) else {
-                colour += b.weight * world.sky().radiance_filtered(b.ray.dir, cone);
+                colour += b.weight * world.sky().radiance_filtered(b.ray.dir, b.spread);
                 continue;
             };
             let m = world.material(hit.material);
@@ -94,6 +99,14 @@ impl Tracer {
             }
             let local = self.local(world, &hit, m, albedo, wo, ng, ns);
             let cos_o = ns.dot(wo).clamp(0.0, 1.0);
+            // The cone at the hit and after it (ray cones): a mirror of curvature κ turns the
+            // edges of a footprint of width w apart by 2κw on its convex side (together on its
+            // concave side); a refracting surface bends the spread like a thin lens of power
+            // (η_t − η_i)κ / η_t, converging where the surface bulges toward the ray. Past a
+            // focus the cone widens again, hence the absolute values.
+            let width = b.width + b.spread * hit.t;
+            let curvature = if entering { world.curvature(hit.object) } else { -world.curvature(hit.object) };
+            let reflected_spread = (b.spread + 2.0 * curvature * width).abs();
             // Fresnel reflection (DESIGN.md §4): lerp(shaded, reflected, F), F by Schlick.
             if let Some(f) = m.schlick(cos_o) {
                 colour += b.weight * local * (Rgb::ONE - f);
@@ -101,7 +114,7 @@ impl Tracer {
                     let weight = b.weight * f;
                     if weight.max_element() > params.min_contribution {
                         let ray = hit.spawn_ray(reflect(-wo, ns));
-                        self.stack.push(Branch { ray, weight, depth: b.depth + 1 });
+                        self.stack.push(Branch { ray, weight, depth: b.depth + 1, width, spread: reflected_spread });
                     }
                 }
                 continue;
@@ -126,15 +139,16 @@ impl Tracer {
                 k_refl = (k_refl + k_refr).min(1.0);
                 k_refr = 0.0;
             }
-            let push = |stack: &mut Vec<Branch>, dir: Vec3, k: f32| {
+            let push = |stack: &mut Vec<Branch>, dir: Vec3, k: f32, spread: f32| {
                 let weight = b.weight * k;
                 if k > 0.0 && weight.max_element() > params.min_contribution {
-                    stack.push(Branch { ray: hit.spawn_ray(dir), weight, depth: b.depth + 1 });
+                    stack.push(Branch { ray: hit.spawn_ray(dir), weight, depth: b.depth + 1, width, spread });
                 }
             };
-            push(&mut self.stack, reflect(-wo, ns), k_refl);
+            push(&mut self.stack, reflect(-wo, ns), k_refl, reflected_spread);
             if let Some(t) = refracted {
-                push(&mut self.stack, t, k_refr);
+                let spread = (b.spread * eta_i / eta_t - (eta_t - eta_i) / eta_t * curvature * width).abs();
+                push(&mut self.stack, t, k_refr, spread);
             }
         }
         (colour, first)

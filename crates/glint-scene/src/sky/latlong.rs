@@ -87,8 +87,8 @@ pub struct LatLongMap {
 }
 
 impl LatLongMap {
-    /// A map from an equirectangular image (width = 2 × height, finite, ≥ 0).
-    pub fn from_image(image: TextureImage) -> Result<LatLongMap, SceneError> {
+    /// What [`LatLongMap::from_image`] requires: width = 2 × height, finite texels ≥ 0.
+    pub fn check_image(image: &TextureImage) -> Result<(), SceneError> {
         let what = "lat-long map";
         if image.width == 0 || image.height == 0 {
             return Err(SceneError::invalid(what, "is empty"));
@@ -112,6 +112,13 @@ impl LatLongMap {
                 format!("texel ({}, {}) is {} (must be finite, ≥ 0)", i % w, i / w, image.texels[i]),
             ));
         }
+        Ok(())
+    }
+
+    /// A map from an equirectangular image (width = 2 × height, finite, ≥ 0).
+    pub fn from_image(image: TextureImage) -> Result<LatLongMap, SceneError> {
+        LatLongMap::check_image(&image)?;
+        let (w, h) = (image.width as usize, image.height as usize);
         Ok(LatLongMap::from_level0(Level::from_interior(w, h, &image.texels)))
     }
 
@@ -187,7 +194,7 @@ impl LatLongMap {
 
 #[inline(always)]
 fn sample(level: &Level, u: f32, v: f32) -> Rgb {
-    level.bilinear(u * level.width as f32, v * level.height as f32)
+    level.bilinear(u * level.size.x, v * level.size.y)
 }
 
 /// Wrap in longitude, clamp in latitude.
