@@ -19,14 +19,18 @@ pub(crate) fn encode_rgb9e5(c: Rgb) -> u32 {
     if max < 1.0e-20 {
         return 0;
     }
-    // Shared exponent: the smallest e with max < 2^(e − 15), at least −16 + 15 + 1.
-    let mut e = (max.log2().floor() as i32).max(-16) + 1 + 15;
-    let mut scale = 2f32.powi(e - 15 - 9);
-    if (max / scale + 0.5).floor() >= 512.0 {
+    // Shared exponent e = ⌊log2 max⌋ + 16 (at least 0), read from the float's exponent bits;
+    // mantissas are x / 2^(e − 24) rounded, and if the largest rounds up to 512 the exponent
+    // steps up once. Powers of two are built from bits too: no libm call.
+    let floor_log2 = ((max.to_bits() >> 23) & 0xff) as i32 - 127;
+    let mut e = floor_log2.max(-16) + 16;
+    let pow2 = |k: i32| f32::from_bits(((k + 127) as u32) << 23);
+    let mut inv_scale = pow2(24 - e);
+    if (max * inv_scale + 0.5) as u32 >= 512 {
         e += 1;
-        scale *= 2.0;
+        inv_scale *= 0.5;
     }
-    let m = |x: f32| ((x / scale + 0.5).floor() as u32).min(511);
+    let m = |x: f32| ((x * inv_scale + 0.5) as u32).min(511);
     m(c.x) | (m(c.y) << 9) | (m(c.z) << 18) | ((e.clamp(0, 31) as u32) << 27)
 }
 
