@@ -3,34 +3,12 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)] // test code: a failure is the report
 
+mod common;
+
+use common::{glint, scratch, shared, stderr};
+
 use glint_image::{Image, metrics::psnr_srgb8};
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn glint(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_glint")).args(args).current_dir(dir).output().expect("the binary runs")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("cli-sky-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn shared(rel: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared")).join(rel);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("skipped: {} is not there", p.display());
-        None
-    }
-}
+use std::path::Path;
 
 fn ok(args: &[&str], dir: &Path) -> String {
     let o = glint(args, dir);
@@ -156,7 +134,7 @@ fn ldr_output_of_hdr_warns_about_clipping() {
 /// untouched, no stray files.
 #[test]
 fn bad_input_fails_cleanly_without_touching_the_output() {
-    let d = scratch("bad");
+    let d = scratch("sky-bad");
     std::fs::write(d.join("out.png"), b"precious").unwrap();
     std::fs::create_dir(d.join("faces")).unwrap();
     std::fs::write(d.join("faces/right.png"), b"mine").unwrap();

@@ -3,22 +3,14 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)] // test code: a failure is the report
 
+mod common;
+
+use common::settings;
+
 use glint_core::{Affine3A, Rgb, Vec3};
-use glint_render::{RenderSettings, Schedule, World};
+use glint_render::World;
 use glint_scene::{Camera, CubeMap, Fov, LatLongMap, Material, Object, Scene, Shape, Sky, SkyTransform, TextureImage};
 use std::sync::Arc;
-
-fn settings(w: u32, h: u32) -> RenderSettings {
-    RenderSettings {
-        width: w,
-        height: h,
-        samples_per_side: 1,
-        max_depth: 8,
-        min_contribution: 1e-3,
-        seed: 0,
-        schedule: Schedule::WorkStealing,
-    }
-}
 
 fn object(shape: Shape, material: usize) -> Object {
     Object { name: "o".into(), shape, material, world_from_object: Affine3A::IDENTITY }

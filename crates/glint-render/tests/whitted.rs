@@ -2,6 +2,10 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)] // test code: a failure is the report
 
+mod common;
+
+use common::settings;
+
 use glint_core::{Affine3A, Quat, Ray, Rgb, Vec3};
 use glint_render::{RenderSettings, Schedule, World};
 use glint_scene::{Attenuation, Camera, Fov, Light, Material, Mesh, Object, Scene, Shape, Sky};
@@ -13,18 +17,6 @@ fn object(name: &str, shape: Shape, material: usize) -> Object {
 
 fn matte(colour: Rgb) -> Material {
     Material { colour, ambient: 0.0, diffuse: 1.0, specular: 0.0, ..Material::default() }
-}
-
-fn settings(w: u32, h: u32) -> RenderSettings {
-    RenderSettings {
-        width: w,
-        height: h,
-        samples_per_side: 1,
-        max_depth: 8,
-        min_contribution: 1e-3,
-        seed: 0,
-        schedule: Schedule::WorkStealing,
-    }
 }
 
 fn centre_colour(world: &World, w: u32, h: u32) -> Rgb {

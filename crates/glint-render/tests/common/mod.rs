@@ -1,9 +1,25 @@
-//! Golden-image comparison shared by the golden tests (STYLE.md §6): references live in
+//! Helpers shared by glint-render's tests. Golden images (STYLE.md §6): references live in
 //! tests/golden/ and change only by an explicit, reviewed regeneration (`GLINT_BLESS=1`); on
 //! failure the actual image and a difference image are written under target/golden/.
 
+#![allow(dead_code)] // each test file uses its own subset
+
 use glint_image::{Image, PngOptions, encode_srgb8};
+use glint_render::{RenderSettings, Schedule};
 use std::path::PathBuf;
+
+/// One ray per pixel, depth 8, seed 0, work stealing.
+pub fn settings(w: u32, h: u32) -> RenderSettings {
+    RenderSettings {
+        width: w,
+        height: h,
+        samples_per_side: 1,
+        max_depth: 8,
+        min_contribution: 1e-3,
+        seed: 0,
+        schedule: Schedule::WorkStealing,
+    }
+}
 
 pub fn golden_dir() -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/golden"))
