@@ -187,7 +187,7 @@ fn check_size(out: &Path, layout: SkyLayout, size: u32) -> Result<(), FormatErro
         return Err(FormatError::write(
             out,
             format!(
-                "{what} of {size} is out of range for a {}: 1..={MAX_SKY_SIDE}, at most {MAX_PIXELS} pixels per image",
+                "{what} of {size} is out of range (layout: {}): 1..={MAX_SKY_SIDE}, at most {MAX_PIXELS} pixels per image",
                 layout.describe()
             ),
         ));

@@ -10,7 +10,7 @@
 //! texel exists, the border corner holds the mean of the three corner texels (what GPUs do). A
 //! bilinear lookup is then four reads from one face, with no branch on the edges.
 
-use super::level::{Level, fast_log2, level_count};
+use super::level::{Level, fast_log2, level_count, mip_blend};
 use crate::{SceneError, TextureImage};
 use glint_core::{Rgb, Vec3};
 
@@ -214,16 +214,16 @@ impl CubeMap {
         if lambda.is_nan() || lambda <= 0.0 {
             return sample(&self.levels[0][f], s, t);
         }
-        let last = (self.levels.len() - 1) as f32;
-        let lambda = lambda.min(last);
-        let l0 = lambda as usize;
-        let frac = lambda - l0 as f32;
+        let (l0, w) = mip_blend(lambda, self.levels.len());
+        if w >= 1.0 {
+            return sample(&self.levels[l0 + 1][f], s, t);
+        }
         let a = sample(&self.levels[l0][f], s, t);
-        if frac == 0.0 || l0 + 1 >= self.levels.len() {
+        if w <= 0.0 {
             return a;
         }
         let b = sample(&self.levels[l0 + 1][f], s, t);
-        a + (b - a) * frac
+        a + (b - a) * w
     }
 }
 

@@ -7,7 +7,7 @@
 //! angle π/H, which is the same everywhere; near the poles, where a row's texels shrink
 //! horizontally, this keeps the poles sharp rather than blurring them to the coarsest level.
 
-use super::level::{Level, fast_log2, level_count};
+use super::level::{Level, fast_log2, level_count, mip_blend};
 use crate::{SceneError, TextureImage};
 use glint_core::{Rgb, Vec3};
 use std::f32::consts::{FRAC_PI_2, PI, TAU};
@@ -180,15 +180,16 @@ impl LatLongMap {
         if lambda.is_nan() || lambda <= 0.0 {
             return sample(&self.levels[0], u, v);
         }
-        let lambda = lambda.min((self.levels.len() - 1) as f32);
-        let l0 = lambda as usize;
-        let frac = lambda - l0 as f32;
+        let (l0, w) = mip_blend(lambda, self.levels.len());
+        if w >= 1.0 {
+            return sample(&self.levels[l0 + 1], u, v);
+        }
         let a = sample(&self.levels[l0], u, v);
-        if frac == 0.0 || l0 + 1 >= self.levels.len() {
+        if w <= 0.0 {
             return a;
         }
         let b = sample(&self.levels[l0 + 1], u, v);
-        a + (b - a) * frac
+        a + (b - a) * w
     }
 }
 
