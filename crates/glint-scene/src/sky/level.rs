@@ -141,19 +141,27 @@ impl Level {
     /// (texel centres at half integers). Coordinates outside are clamped, NaN reads texel 0, so
     /// the read never leaves the bordered grid.
     #[inline(always)]
+    #[allow(unsafe_code)]
     pub fn bilinear(&self, u: f32, v: f32) -> Rgb {
         // Shifted by one texel into the bordered grid: x = u − ½ + 1 ∈ [½, width + ½], so the
-        // left tap is ⌊x⌋ ∈ [0, width] and the right one ≤ width + 1 < stride. Being positive,
-        // ⌊x⌋ is a truncating cast (no libm floor call). A NaN coordinate passes the clamp, and
-        // the saturating cast makes it tap 0: the read stays inside, the result is NaN.
-        let x = (u + 0.5).clamp(0.5, self.size.x + 0.5);
-        let y = (v + 0.5).clamp(0.5, self.size.y + 0.5);
-        let (xi, yi) = (x as i32 as usize, y as i32 as usize);
-        let (fx, fy) = (x - xi as i32 as f32, y - yi as i32 as f32);
-        let i = yi * self.stride + xi;
-        let t = &self.texels[i..i + 2];
-        let b = &self.texels[i + self.stride..i + self.stride + 2];
-        filter_taps([t[0], t[1], b[0], b[1]], fx, fy)
+        // left tap is ⌊x⌋ ∈ [0, width] and the right one ≤ width + 1 < stride; ⌊x⌋ of a
+        // positive number is a truncation. `max` maps NaN to ½ (a NaN direction reads texel 0).
+        let x = (u + 0.5).max(0.5).min(self.size.x + 0.5);
+        let y = (v + 0.5).max(0.5).min(self.size.y + 0.5);
+        // SAFETY: x and y are finite and in [½, size + ½] (max/min return the bound for NaN or
+        // out-of-range input), so the truncations fit a u32 and give xi ≤ width, yi ≤ height;
+        // the taps at columns xi, xi + 1 ≤ width + 1 of rows yi, yi + 1 ≤ height + 1 lie inside
+        // the (width + 2) × (height + 2) grid. Tested by `bilinear_is_exact_at_centres_and_linear_between`
+        // (out-of-range and NaN coordinates) and every lookup test of the cube and lat-long maps.
+        unsafe {
+            let (xi, yi) = (x.to_int_unchecked::<u32>() as usize, y.to_int_unchecked::<u32>() as usize);
+            let (fx, fy) = (x - xi as f32, y - yi as f32);
+            let i = yi * self.stride + xi;
+            debug_assert!(i + self.stride + 1 < self.texels.len());
+            let t = self.texels.get_unchecked(i..i + 2);
+            let b = self.texels.get_unchecked(i + self.stride..i + self.stride + 2);
+            filter_taps([t[0], t[1], b[0], b[1]], fx, fy)
+        }
     }
 
     /// The next coarser level's interior: each side halved (at least 1), every new texel the
@@ -270,9 +278,10 @@ mod tests {
         assert_eq!(l.bilinear(1.5, 2.5), Rgb::new(1.0, 2.0, 1.0));
         let c = l.bilinear(2.0, 1.75);
         assert!((c.x - 1.5).abs() < 1e-6 && (c.y - 1.25).abs() < 1e-6);
-        // Far outside or NaN: clamped, no panic.
-        let _ = l.bilinear(f32::NAN, -1e30);
-        let _ = l.bilinear(1e30, f32::INFINITY);
+        // Far outside, infinite or NaN: clamped to the border, a finite texel value.
+        for (u, v) in [(f32::NAN, -1e30), (1e30, f32::INFINITY), (f32::NEG_INFINITY, f32::NAN), (-3.0, 9.0)] {
+            assert!(l.bilinear(u, v).is_finite(), "{u} {v}");
+        }
     }
 
     #[test]
