@@ -138,7 +138,9 @@ impl CubeMap {
         CubeMap::check_faces(&faces)?;
         let size = faces[0].width;
         let n = size as usize;
-        let base = faces.map(|img| Level::from_interior(n, n, &img.texels));
+        // The six faces are encoded in parallel (each on its own: the result does not depend on
+        // the thread count).
+        let base = par_faces(|f| Level::from_interior(n, n, &faces[f].texels));
         Ok(CubeMap::from_level0(base))
     }
 
@@ -165,7 +167,7 @@ impl CubeMap {
         let mut levels = vec![base];
         while levels.len() < count {
             let prev = levels.last().expect("at least one level");
-            let mut next = std::array::from_fn(|f| {
+            let mut next = par_faces(|f| {
                 let (w, h, t) = prev[f].downsampled_interior();
                 Level::from_interior(w, h, &t)
             });
@@ -225,6 +227,14 @@ impl CubeMap {
         let b = sample(&self.levels[l0 + 1][f], s, t);
         a + (b - a) * w
     }
+}
+
+/// `make(face)` for the six faces, on rayon's threads.
+fn par_faces(make: impl Fn(usize) -> Level + Sync) -> [Level; 6] {
+    use rayon::prelude::*;
+    let mut levels: Vec<Level> = (0..6).into_par_iter().map(&make).collect();
+    let mut take = |i: usize| std::mem::replace(&mut levels[i], Level::from_interior(0, 0, &[]));
+    [take(0), take(1), take(2), take(3), take(4), take(5)]
 }
 
 #[inline(always)]
