@@ -94,7 +94,7 @@ pub struct SkyArgs {
     #[arg(long = "sky-rotation", value_name = "DEG", allow_hyphen_values = true)]
     pub sky_rotation: Option<f32>,
     /// Multiply the sky's radiance.
-    #[arg(long = "sky-intensity", value_name = "X")]
+    #[arg(long = "sky-intensity", value_name = "X", allow_hyphen_values = true)]
     pub sky_intensity: Option<f32>,
     /// Flip every cube face as it is read (sets stored upside down need `vertical`).
     #[arg(long = "sky-flip", value_enum, value_name = "HOW")]

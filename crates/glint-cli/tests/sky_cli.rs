@@ -173,3 +173,63 @@ fn bad_input_fails_cleanly_without_touching_the_output() {
     assert_eq!(left, ["corrupt.hdr", "env.hdr", "faces", "five", "out.png", "square.hdr"]);
     assert_eq!(std::fs::read_dir(d.join("faces")).unwrap().count(), 1);
 }
+
+/// `glint render --sky`: the sky replaces the scene's, turns with `--sky-rotation`, scales with
+/// `--sky-intensity`; bad sky options fail without touching the output.
+#[test]
+fn render_takes_a_sky_from_the_command_line() {
+    let d = scratch("render-sky");
+    // A lat-long map, red toward −Z (ahead of the default camera), blue toward +X.
+    let (w, h) = (64u32, 32u32);
+    let mut r = vec![0.0f32; (w * h) as usize];
+    let mut b = vec![0.0f32; (w * h) as usize];
+    for y in 0..h as usize {
+        for x in 0..w as usize {
+            let u = (x as f32 + 0.5) / w as f32;
+            r[y * w as usize + x] = if (u - 0.5).abs() < 0.1 { 1.0 } else { 0.0 };
+            b[y * w as usize + x] = if (u - 0.75).abs() < 0.1 { 1.0 } else { 0.0 };
+        }
+    }
+    let mut env = Image::new(w, h);
+    env.add_channel("R", r).unwrap();
+    env.add_channel("G", vec![0.0; (w * h) as usize]).unwrap();
+    env.add_channel("B", b).unwrap();
+    glint_image::write_exr(&d.join("env.exr"), &env).unwrap();
+    // The demo scene's camera looks at its objects; look up and ahead past them into the sky.
+    let view = ["--eye", "0,50,0", "--look-at", "0,50.2,-1", "--width", "16", "--height", "16", "-q"];
+    let centre = |file: &str| {
+        let img = read(&d.join(file));
+        let i = 8 * 16 + 8;
+        (img.channel("R").unwrap()[i], img.channel("B").unwrap()[i])
+    };
+    let mut args = vec!["render", "--sky", "env.exr", "-o", "ahead.exr"];
+    args.extend(view);
+    ok(&args, &d);
+    let (r, b) = centre("ahead.exr");
+    assert!(r > 0.9 && b < 0.1, "ahead should be red: r {r} b {b}");
+    // Turned by 90° counter-clockwise seen from above, what was to the right (+X) is ahead.
+    let mut args =
+        vec!["render", "--sky", "env.exr", "--sky-rotation", "90", "--sky-intensity", "2", "-o", "turned.exr"];
+    args.extend(view);
+    ok(&args, &d);
+    let (r, b) = centre("turned.exr");
+    assert!(r < 0.1 && b > 1.8, "after the turn, ahead should be blue at intensity 2: r {r} b {b}");
+    // Bad options: non-zero exit, the file named, out.png untouched.
+    std::fs::write(d.join("out.png"), b"precious").unwrap();
+    std::fs::write(d.join("odd.png"), b"not a png").unwrap();
+    let cases: &[(&[&str], &str)] = &[
+        (&["render", "--sky", "nowhere.hdr", "-o", "out.png"], "nowhere.hdr"),
+        (&["render", "--sky", "odd.png", "-o", "out.png"], "odd.png"),
+        (&["render", "--sky", "env.exr", "--sky-flip", "vertical", "-o", "out.png"], "lat-long"),
+        (&["render", "--sky", "env.exr", "--sky-intensity", "-1", "-o", "out.png"], "intensity"),
+        (&["render", "--sky-flip", "vertical", "-o", "out.png"], "--sky-flip"),
+    ];
+    for (args, needle) in cases {
+        let o = glint(args, &d);
+        let msg = stderr(&o);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(msg.contains(needle), "{args:?}: message does not name {needle:?}: {msg}");
+        assert!(!msg.contains("panicked"), "{args:?} panicked: {msg}");
+        assert_eq!(std::fs::read(d.join("out.png")).unwrap(), b"precious", "{args:?} touched out.png");
+    }
+}
