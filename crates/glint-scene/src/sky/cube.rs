@@ -91,8 +91,9 @@ fn direction_cube(face: usize, s: f32, t: f32) -> Vec3 {
 pub struct CubeMap {
     /// Finest first; the last level has 1×1 faces.
     levels: Vec<[Level; 6]>,
-    /// log2(face size / 2), for mip level selection.
+    /// log2(face size / 2) and face size / 2, for mip level selection.
     log2_half_size: f32,
+    half_size: f32,
 }
 
 impl CubeMap {
@@ -174,8 +175,8 @@ impl CubeMap {
             fill_borders(&mut next);
             levels.push(next);
         }
-        let log2_half_size = (levels[0][0].width as f32 / 2.0).log2();
-        CubeMap { levels, log2_half_size }
+        let half_size = levels[0][0].width as f32 / 2.0;
+        CubeMap { levels, log2_half_size: half_size.log2(), half_size }
     }
 
     pub fn face_size(&self) -> u32 {
@@ -210,9 +211,14 @@ impl CubeMap {
         // A texel of a face of side n subtends a solid angle (2/n)² m³ at the direction whose
         // major component is m = |major| / |dir|: its angular width is (2/n) m^1.5, and the
         // level is log2(cone / that) = log2(cone) + log2(n/2) + ¾ log2|dir|² − 1.5 log2|major|
-        // (all in bit-trick logs: no division, no square root).
-        let lambda =
-            fast_log2(cone_angle) + self.log2_half_size + 0.75 * fast_log2(c.length_squared()) - 1.5 * fast_log2(ma);
+        // (all in bit-trick logs: no division, no square root). Magnified footprints (λ ≤ 0,
+        // most camera rays) are told apart first without logs: λ ≤ 0 ⟺ (cone·n/2)⁴ |dir|⁶ ≤ |major|⁶.
+        let k = cone_angle * self.half_size;
+        let (l2, ma3) = (c.length_squared(), ma * ma * ma);
+        if (k * k) * (k * k) * (l2 * l2 * l2) <= ma3 * ma3 || cone_angle.is_nan() {
+            return sample(&self.levels[0][f], s, t);
+        }
+        let lambda = fast_log2(cone_angle) + self.log2_half_size + 0.75 * fast_log2(l2) - 1.5 * fast_log2(ma);
         if lambda.is_nan() || lambda <= 0.0 {
             return sample(&self.levels[0][f], s, t);
         }

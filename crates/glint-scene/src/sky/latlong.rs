@@ -175,9 +175,12 @@ impl LatLongMap {
     #[inline]
     pub fn lookup_filtered(&self, dir: Vec3, cone_angle: f32) -> Rgb {
         let (u, v) = latlong_uv(dir);
-        let h = self.levels[0].height as f32;
-        let lambda = fast_log2(cone_angle * h * (1.0 / PI));
-        if lambda.is_nan() || lambda <= 0.0 {
+        let texels = cone_angle * self.levels[0].size.y * (1.0 / PI); // footprint in rows
+        if texels.is_nan() || texels <= 1.0 {
+            return sample(&self.levels[0], u, v);
+        }
+        let lambda = fast_log2(texels);
+        if lambda <= 0.0 {
             return sample(&self.levels[0], u, v);
         }
         let (l0, w) = mip_blend(lambda, self.levels.len());

@@ -41,6 +41,14 @@ pub(crate) fn decode_rgb9e5(v: u32) -> Vec3A {
     Vec3A::new((v & 511) as f32, ((v >> 9) & 511) as f32, ((v >> 18) & 511) as f32) * scale
 }
 
+/// `x` clamped to [lo, hi], NaN to `lo`: written as comparisons that are false for NaN, so
+/// that it compiles to one `maxss` and one `minss` (`f32::max`/`min` add NaN fix-ups).
+#[inline(always)]
+fn clamp_nan_low(x: f32, lo: f32, hi: f32) -> f32 {
+    let x = if x > lo { x } else { lo };
+    if x < hi { x } else { hi }
+}
+
 /// Bilinear weighting of four RGB9E5 taps (top left, top right, bottom left, bottom right) at
 /// fractions (`fx`, `fy`). On x86-64 the four taps are decoded and weighted in SSE2 lanes, one
 /// channel per register, then summed across lanes: a third of the instructions of decoding
@@ -145,11 +153,11 @@ impl Level {
     pub fn bilinear(&self, u: f32, v: f32) -> Rgb {
         // Shifted by one texel into the bordered grid: x = u − ½ + 1 ∈ [½, width + ½], so the
         // left tap is ⌊x⌋ ∈ [0, width] and the right one ≤ width + 1 < stride; ⌊x⌋ of a
-        // positive number is a truncation. `max` maps NaN to ½ (a NaN direction reads texel 0).
-        let x = (u + 0.5).max(0.5).min(self.size.x + 0.5);
-        let y = (v + 0.5).max(0.5).min(self.size.y + 0.5);
-        // SAFETY: x and y are finite and in [½, size + ½] (max/min return the bound for NaN or
-        // out-of-range input), so the truncations fit a u32 and give xi ≤ width, yi ≤ height;
+        // positive number is a truncation. NaN becomes ½ (a NaN direction reads texel 0).
+        let x = clamp_nan_low(u + 0.5, 0.5, self.size.x + 0.5);
+        let y = clamp_nan_low(v + 0.5, 0.5, self.size.y + 0.5);
+        // SAFETY: x and y are finite and in [½, size + ½] (`clamp_nan_low` returns a bound for
+        // NaN or out-of-range input), so the truncations fit a u32 and give xi ≤ width, yi ≤ height;
         // the taps at columns xi, xi + 1 ≤ width + 1 of rows yi, yi + 1 ≤ height + 1 lie inside
         // the (width + 2) × (height + 2) grid. Tested by `bilinear_is_exact_at_centres_and_linear_between`
         // (out-of-range and NaN coordinates) and every lookup test of the cube and lat-long maps.
