@@ -1,6 +1,7 @@
 //! Instruction-count probe for sky lookups (load-independent, for before/after comparisons):
 //! `valgrind --tool=callgrind target/release/examples/sky_lookup KIND` with KIND one of cube,
-//! cube_mip, latlong, latlong_mip; it performs 640×360 coherent lookups, then prints a sum.
+//! cube_mip, latlong, latlong_mip (anything else: no lookup, the baseline to subtract); it performs
+//! 640×360 coherent lookups on 256² faces / a 128×64 map, then prints a sum.
 
 use glint_core::{Rgb, Vec2, Vec3};
 use glint_scene::{Camera, CubeMap, Fov, LatLongMap};
