@@ -28,7 +28,7 @@ pub(crate) fn image_error(path: &Path, e: ImageError) -> FormatError {
         ImageError::Limits { message, .. } => FormatError::limits(path, format!("image too large: {message}")),
         ImageError::Decode { message, .. } => FormatError::malformed(path, "image data", message),
         ImageError::UnsupportedFormat { .. } => {
-            FormatError::malformed(path, "image data", "not a PNG, JPEG, Radiance HDR or OpenEXR image")
+            FormatError::malformed(path, "image data", "not a PNG, JPEG, TGA, BMP, Radiance HDR or OpenEXR image")
         }
         other => FormatError::malformed(path, "image data", other.to_string()),
     }

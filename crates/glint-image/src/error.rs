@@ -20,7 +20,7 @@ pub enum ImageError {
     Encode { path: PathBuf, message: String },
     /// The extension (or, when reading, the contents) names no format glint reads or writes.
     #[error(
-        "{}: unsupported image format (glint reads and writes .png, .jpg/.jpeg, .hdr, .exr)",
+        "{}: unsupported image format (glint reads .png, .jpg/.jpeg, .tga, .bmp, .hdr, .exr and writes .png, .jpg, .hdr, .exr)",
         path.display()
     )]
     UnsupportedFormat { path: PathBuf },

@@ -57,7 +57,7 @@ pub fn read_image(path: &Path) -> Result<Image, ImageError> {
     }
     let format = image::guess_format(&bytes).ok().or_else(|| ImageFormat::from_path(path).ok());
     let format = match format {
-        Some(f @ (ImageFormat::Png | ImageFormat::Jpeg | ImageFormat::Hdr)) => f,
+        Some(f @ (ImageFormat::Png | ImageFormat::Jpeg | ImageFormat::Hdr | ImageFormat::Tga | ImageFormat::Bmp)) => f,
         _ => return Err(ImageError::UnsupportedFormat { path: path.to_path_buf() }),
     };
     let mut reader = ImageReader::with_format(Cursor::new(&bytes), format);
@@ -180,6 +180,28 @@ mod tests {
             let err = read_image(&cut_path).expect_err("truncated");
             assert!(matches!(err, ImageError::Decode { .. }), "cut {cut}: {err}");
         }
+    }
+
+    /// TGA (how many skyboxes and game textures ship, hipshot's Miramar among them) and BMP
+    /// read as sRGB like PNG; a TGA cut short is a decode error naming the file.
+    #[test]
+    fn tga_and_bmp_read_as_srgb() {
+        let dir = TestDir::new("read-tga");
+        let rgb = image::RgbImage::from_fn(3, 2, |x, y| image::Rgb([(x * 100) as u8, (y * 255) as u8, 188]));
+        for name in ["face.tga", "face.bmp"] {
+            let path = dir.join(name);
+            rgb.save(&path).expect("encode");
+            let img = read_image(&path).expect(name);
+            assert_eq!((img.width, img.height), (3, 2));
+            let r = img.channel("R").expect("R");
+            assert!((r[2] - srgb_to_linear(200.0 / 255.0)).abs() < 1e-6, "{name}: {}", r[2]);
+            assert!((img.channel("G").expect("G")[3] - 1.0).abs() < 1e-6);
+        }
+        let path = dir.join("cut.tga");
+        let bytes = std::fs::read(dir.join("face.tga")).expect("read");
+        std::fs::write(&path, &bytes[..bytes.len() - 6]).expect("write");
+        let err = read_image(&path).expect_err("truncated");
+        assert!(err.to_string().starts_with(&path.display().to_string()), "{err}");
     }
 
     #[test]

@@ -7,21 +7,21 @@
 //!
 //! | face | tokens                          |
 //! |------|---------------------------------|
-//! | +X   | `px` `posx` `+x` `right`        |
-//! | −X   | `nx` `negx` `-x` `left`         |
-//! | +Y   | `py` `posy` `+y` `up` `top`     |
-//! | −Y   | `ny` `negy` `-y` `down` `bottom`|
-//! | +Z   | `pz` `posz` `+z` `front`        |
-//! | −Z   | `nz` `negz` `-z` `back`         |
+//! | +X   | `px` `posx` `+x` `right` `rt`        |
+//! | −X   | `nx` `negx` `-x` `left` `lf`         |
+//! | +Y   | `py` `posy` `+y` `up` `top`          |
+//! | −Y   | `ny` `negy` `-y` `down` `bottom` `dn`|
+//! | +Z   | `pz` `posz` `+z` `front` `ft`        |
+//! | −Z   | `nz` `negz` `-z` `back` `bk`         |
 
 use crate::error::FormatError;
 use glint_scene::CubeFace;
 use std::path::{Path, PathBuf};
 
 /// Image extensions a face file may have (lower case).
-pub(crate) const FACE_EXTENSIONS: [&str; 5] = ["png", "jpg", "jpeg", "hdr", "exr"];
+pub(crate) const FACE_EXTENSIONS: [&str; 7] = ["png", "jpg", "jpeg", "tga", "bmp", "hdr", "exr"];
 
-const TOKENS: [(&str, CubeFace); 26] = [
+const TOKENS: [(&str, CubeFace); 31] = [
     ("px", CubeFace::PosX),
     ("nx", CubeFace::NegX),
     ("py", CubeFace::PosY),
@@ -48,6 +48,14 @@ const TOKENS: [(&str, CubeFace); 26] = [
     ("bottom", CubeFace::NegY),
     ("front", CubeFace::PosZ),
     ("back", CubeFace::NegZ),
+    // Quake-style short names (hipshot's and many game sets ship as `name_rt.tga` …); after the
+    // long names, so that `left` is never read as `…ft`. Engines with +Z up store these
+    // turned: the seam check then names the per-face fix.
+    ("rt", CubeFace::PosX),
+    ("lf", CubeFace::NegX),
+    ("dn", CubeFace::NegY),
+    ("ft", CubeFace::PosZ),
+    ("bk", CubeFace::NegZ),
 ];
 
 /// The names a face is recognised by, for messages: "px, posx, +x, right".
@@ -136,8 +144,9 @@ pub(crate) fn find_faces(folder: &Path) -> Result<[PathBuf; 6], FormatError> {
         return Err(FormatError::sky(
             folder,
             format!(
-                "{what}{ignored} (faces are named px/nx/py/ny/pz/nz, posx/negx/…, +x/-x/…, or \
-                 right/left/up|top/down|bottom/front/back, with an optional prefix such as sky_)"
+                "{what}{ignored} (faces are named px/nx/py/ny/pz/nz, posx/negx/…, +x/-x/…, \
+                 right/left/up|top/down|bottom/front/back, or rt/lf/up/dn/ft/bk, with an optional prefix \
+                 such as sky_)"
             ),
         ));
     }
@@ -174,11 +183,18 @@ mod tests {
             ("bottom", NegY),
             ("front", PosZ),
             ("storforsen-back", NegZ),
+            ("miramar_rt", PosX),
+            ("miramar_lf", NegX),
+            ("miramar_dn", NegY),
+            ("miramar_ft", PosZ),
+            ("BK", NegZ),
         ];
         for (stem, face) in cases {
             assert_eq!(face_from_stem(stem), Some(face), "{stem}");
         }
-        for stem in ["skypx", "upper", "frontal", "x", "sky", "", "backup", "negative_x", "pxx", "cloudsup"] {
+        for stem in
+            ["skypx", "upper", "frontal", "x", "sky", "", "backup", "negative_x", "pxx", "cloudsup", "craft", "skydn"]
+        {
             assert_eq!(face_from_stem(stem), None, "{stem}");
         }
     }
@@ -186,6 +202,7 @@ mod tests {
     #[test]
     fn names_for_messages() {
         assert_eq!(face_names(PosY), "py, posy, +y, up, top");
+        assert_eq!(face_names(NegX), "nx, negx, -x, left, lf");
     }
 
     #[test]
@@ -220,7 +237,7 @@ mod tests {
             std::fs::write(dir.join(name), b"").expect("write");
         }
         let err = find_faces(dir.path()).expect_err("missing").to_string();
-        assert!(err.contains("missing cube face ny (ny, negy, -y, down, bottom)"), "{err}");
+        assert!(err.contains("missing cube face ny (ny, negy, -y, down, bottom, dn)"), "{err}");
 
         std::fs::write(dir.join("down.png"), b"").expect("write");
         std::fs::write(dir.join("negx.jpg"), b"").expect("write");
