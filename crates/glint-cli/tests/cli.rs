@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{glint, scratch, shared, stderr};
+use common::{assert_fails_cleanly, glint, scratch, shared, stderr};
 
 #[test]
 fn no_arguments_render_the_demo_to_glint_png() {
@@ -70,12 +70,7 @@ fn bad_input_fails_cleanly_without_touching_the_output() {
         (&["render", "-o", "no/such/dir/out.png", "--width", "8", "--height", "8"], "out.png"),
     ];
     for (args, needle) in cases {
-        let o = glint(args, &d);
-        let msg = stderr(&o);
-        assert!(!o.status.success(), "{args:?} succeeded");
-        assert!(msg.contains(needle), "{args:?}: message does not name {needle:?}: {msg}");
-        assert!(!msg.contains("panicked"), "{args:?} panicked: {msg}");
-        assert_eq!(std::fs::read(d.join("out.png")).unwrap(), b"precious", "{args:?} touched out.png");
+        assert_fails_cleanly(args, needle, &d);
     }
 }
 

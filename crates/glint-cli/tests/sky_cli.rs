@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{glint, scratch, shared, stderr};
+use common::{assert_fails_cleanly, glint, scratch, shared, stderr};
 
 use glint_image::{Image, metrics::psnr_srgb8};
 use std::path::Path;
@@ -159,12 +159,7 @@ fn bad_input_fails_cleanly_without_touching_the_output() {
         (&["sky", "convert", "env.hdr", "out.png", "--to", "sphere"], "sphere"),
     ];
     for (args, needle) in cases {
-        let o = glint(args, &d);
-        let msg = stderr(&o);
-        assert!(!o.status.success(), "{args:?} succeeded");
-        assert!(msg.contains(needle), "{args:?}: message does not name {needle:?}: {msg}");
-        assert!(!msg.contains("panicked"), "{args:?} panicked: {msg}");
-        assert_eq!(std::fs::read(d.join("out.png")).unwrap(), b"precious", "{args:?} touched out.png");
+        assert_fails_cleanly(args, needle, &d);
         assert_eq!(std::fs::read(d.join("faces/right.png")).unwrap(), b"mine", "{args:?} touched faces/");
     }
     let mut left: Vec<String> =
@@ -225,11 +220,6 @@ fn render_takes_a_sky_from_the_command_line() {
         (&["render", "--sky-flip", "vertical", "-o", "out.png"], "--sky-flip"),
     ];
     for (args, needle) in cases {
-        let o = glint(args, &d);
-        let msg = stderr(&o);
-        assert!(!o.status.success(), "{args:?} succeeded");
-        assert!(msg.contains(needle), "{args:?}: message does not name {needle:?}: {msg}");
-        assert!(!msg.contains("panicked"), "{args:?} panicked: {msg}");
-        assert_eq!(std::fs::read(d.join("out.png")).unwrap(), b"precious", "{args:?} touched out.png");
+        assert_fails_cleanly(args, needle, &d);
     }
 }

@@ -37,3 +37,14 @@ pub fn shared(rel: &str) -> Option<PathBuf> {
         None
     }
 }
+
+/// Runs `args` in `dir` and asserts a clean failure: non-zero exit, a message containing
+/// `needle`, no panic, and `dir/out.png` still holding `b"precious"` (callers write it first).
+pub fn assert_fails_cleanly(args: &[&str], needle: &str, dir: &Path) {
+    let o = glint(args, dir);
+    let msg = stderr(&o);
+    assert!(!o.status.success(), "{args:?} succeeded");
+    assert!(msg.contains(needle), "{args:?}: message does not name {needle:?}: {msg}");
+    assert!(!msg.contains("panicked"), "{args:?} panicked: {msg}");
+    assert_eq!(std::fs::read(dir.join("out.png")).expect("out.png"), b"precious", "{args:?} touched out.png");
+}
