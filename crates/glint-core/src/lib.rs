@@ -6,6 +6,7 @@
 #![forbid(unsafe_code)]
 
 pub mod bounds;
+pub mod chi2;
 pub mod colour;
 pub mod float;
 pub mod frame;

@@ -60,6 +60,25 @@ mod tests {
         assert!((mean_z - 2.0 / 3.0).abs() < 0.01, "{mean_z}");
     }
 
+    /// The χ² tests below, for the suite's significance level.
+    const CHI2_TESTS: usize = 2;
+
+    #[test]
+    fn cosine_hemisphere_matches_its_pdf_chi2() {
+        let n = 200_000;
+        let s: Vec<Vec3> = (0..n).map(|i| sample_cosine_hemisphere(SampleStream::new(i, 1, 11).next_2d())).collect();
+        let out = crate::chi2::chi2_sphere(&s, n as usize, |d| cosine_hemisphere_pdf(d.z) as f64, 16, 32);
+        assert!(out.passes(CHI2_TESTS), "{out}");
+    }
+
+    #[test]
+    fn uniform_sphere_matches_its_pdf_chi2() {
+        let n = 200_000;
+        let s: Vec<Vec3> = (0..n).map(|i| sample_uniform_sphere(SampleStream::new(i, 2, 11).next_2d())).collect();
+        let out = crate::chi2::chi2_sphere(&s, n as usize, |_| 1.0 / (4.0 * std::f64::consts::PI), 16, 32);
+        assert!(out.passes(CHI2_TESTS), "{out}");
+    }
+
     #[test]
     fn stratified_stays_in_its_cell() {
         for idx in 0..9 {

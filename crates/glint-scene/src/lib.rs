@@ -25,7 +25,7 @@ pub use mesh::Mesh;
 pub use object::{Object, Shape};
 pub use scene::{RenderDefaults, Scene};
 pub use sky::{
-    CubeFace, CubeMap, IrradianceSh, LatLongMap, Sky, SkyTransform, cube_direction, cube_face_st, latlong_direction,
-    latlong_uv,
+    CubeFace, CubeMap, IrradianceSh, LatLongMap, Sky, SkySample, SkySampler, SkyTransform, cube_direction,
+    cube_face_st, latlong_direction, latlong_uv,
 };
 pub use texture::{Texture, TextureImage};

@@ -187,6 +187,11 @@ impl CubeMap {
         self.levels.len()
     }
 
+    /// The finest level's six faces, borders included (what [`CubeMap::lookup`] reads).
+    pub(crate) fn finest(&self) -> &[Level; 6] {
+        &self.levels[0]
+    }
+
     /// The finest level of `face`, as stored (t = 0 at the top).
     pub fn face_image(&self, face: CubeFace) -> TextureImage {
         let l = &self.levels[0][face.index()];

@@ -158,6 +158,11 @@ impl LatLongMap {
         self.levels.len()
     }
 
+    /// The finest level, border included (what [`LatLongMap::lookup`] reads).
+    pub(crate) fn finest(&self) -> &Level {
+        &self.levels[0]
+    }
+
     /// The finest level as an image.
     pub fn image(&self) -> TextureImage {
         let l = &self.levels[0];

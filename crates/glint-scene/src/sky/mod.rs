@@ -5,15 +5,18 @@
 //! kinds: [`Sky::radiance`] (the finest level, bilinear: for light transport) and
 //! [`Sky::radiance_filtered`] (trilinear over the mip pyramid for a ray footprint: for what a
 //! pixel sees, so a 2048² face in a 640-pixel image does not shimmer). [`IrradianceSh`] turns
-//! any sky into the ambient light of a surface with a given normal.
+//! any sky into the ambient light of a surface with a given normal; [`SkySampler`] draws
+//! directions toward it in proportion to its luminance (the sky as a light of the path tracer).
 
 mod cube;
 mod latlong;
 mod level;
+mod sampling;
 mod sh;
 
 pub use cube::{CubeFace, CubeMap, cube_direction, cube_face_st};
 pub use latlong::{LatLongMap, latlong_direction, latlong_uv};
+pub use sampling::{SkySample, SkySampler};
 pub use sh::IrradianceSh;
 
 use glint_core::{Rgb, Vec3};
@@ -42,6 +45,15 @@ impl SkyTransform {
             return d;
         }
         Vec3::new(self.cos * d.x - self.sin * d.z, d.y, self.sin * d.x + self.cos * d.z)
+    }
+
+    /// The world direction of map-space direction `d` (inverse of [`SkyTransform::to_map`]).
+    #[inline(always)]
+    pub fn to_world(&self, d: Vec3) -> Vec3 {
+        if self.sin == 0.0 && self.cos == 1.0 {
+            return d;
+        }
+        Vec3::new(self.cos * d.x + self.sin * d.z, d.y, -self.sin * d.x + self.cos * d.z)
     }
 }
 
