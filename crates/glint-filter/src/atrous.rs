@@ -1,0 +1,286 @@
+//! Edge-avoiding À-Trous wavelet filtering (Dammertz, Sewtz, Hanika, Lensch, HPG 2010): the
+//! 5×5 B3-spline kernel h·hᵀ, h = [1, 4, 6, 4, 1]/16, applied with holes 2^i pixels apart at
+//! iteration i, each tap weighted by edge-stopping functions of colour, normal and depth.
+//!
+//! One `exp2` per pair of pixels: normals, depth and colour are stored pre-scaled by √(log₂e)/σ,
+//! and the kernel weight enters as an offset, so `h_ab · e^(−|Δc|²/σc²) · e^(−|Δn|²/σn²) ·
+//! e^(−Δz²/σz²) = 2^−(|Δg|² − log₂ h_ab)`. That weight is symmetric (h is, and so is |Δg|²),
+//! so each row first computes the 12 "forward" taps (below, or right on the same row) of its
+//! pixels, uses them for its own sums and keeps them in a ring of rows; each pixel then adds its
+//! 12 "backward" taps by reading the weight its neighbour computed. Half the exponentials, and
+//! the same bits as computing both (the weight of a pair is one value either way). The loops
+//! run tap by tap over 128-pixel segments of a row, whose pixels are independent, so the long
+//! dependency chain of each weight (distance, then `exp2`) does not serialise the work.
+//!
+//! The colour sigma halves each iteration, which in scaled units is a factor 2 on the colour
+//! written for the next one (exact in binary floating point). Taps outside the image get
+//! weight zero (rows are skipped, columns masked near the border). Rows are split into bands
+//! for the threads; a band recomputes the forward taps of the 2·2^i rows above it, and since
+//! every pixel adds its contributions in an order that does not depend on the band, any split
+//! gives the same bits.
+
+use std::sync::Mutex;
+
+use rayon::prelude::*;
+
+use crate::check::{self, Names};
+use crate::lanes::{Chunk, F8, LANES, array};
+use crate::padded::{Padded, inner_vectors, view};
+use crate::simd::{self, Kernels};
+use crate::{AtrousParams, FilterError, Guide, Isa};
+
+/// Vectors per row segment of the forward pass (its 7 feature planes, three tap rows and
+/// sums fit in L1).
+const SEGMENT: usize = 16;
+
+/// More iterations than this would space taps 2^16 px apart: beyond any image.
+const MAX_ITERATIONS: u32 = 16;
+
+/// The 12 forward taps (column, row) in units of the step: the rest of the row to the right,
+/// and the two rows below. Their mirror images are the backward taps.
+const FORWARD: [(isize, usize); 12] =
+    [(1, 0), (2, 0), (-2, 1), (-1, 1), (0, 1), (1, 1), (2, 1), (-2, 2), (-1, 2), (0, 2), (1, 2), (2, 2)];
+
+pub(crate) fn atrous_into_named(
+    isa: Isa,
+    input: [&[f32]; 3],
+    guide: &Guide,
+    p: &AtrousParams,
+    names: &Names,
+    out: [&mut [f32]; 3],
+) -> Result<(), FilterError> {
+    let (w, h) = check::sizes(input, guide, names)?;
+    check::outputs(&out, w, h)?;
+    if p.iterations == 0 || p.iterations > MAX_ITERATIONS {
+        return Err(FilterError::parameter(
+            "A-Trous",
+            format!("iterations must be in 1..={MAX_ITERATIONS}, got {}", p.iterations),
+        ));
+    }
+    check::positive("A-Trous", "sigma_colour", p.sigma_colour)?;
+    check::positive("A-Trous", "sigma_normal", p.sigma_normal)?;
+    check::positive("A-Trous", "sigma_depth", p.sigma_depth)?;
+    let root = std::f32::consts::LOG2_E.sqrt();
+    // Taps at |dx| >= w can never land inside the image and are skipped, so the margin never
+    // needs to exceed the width.
+    let reach = (2usize << (p.iterations - 1)).min(w + LANES);
+    let mut geo = Padded::zeros(w, h, reach, 4);
+    let kn = root / p.sigma_normal;
+    let mut finite = true;
+    for (k, plane) in guide.normal.iter().enumerate() {
+        finite &= geo.fill(k, plane, |v| v * kn);
+    }
+    let kz = root / p.sigma_depth;
+    finite &= geo.fill(3, guide.depth, |z| z.min(1.0) * kz);
+    let mut cur = Padded::zeros(w, h, reach, 3);
+    let mut kc = root / p.sigma_colour;
+    for (k, plane) in input.iter().enumerate() {
+        finite &= cur.fill(k, plane, |v| v * kc);
+    }
+    if !finite {
+        return check::finite(input, guide, names);
+    }
+    let mut next = cur.clone();
+    // −log₂ h_ab: the exponent offset of each forward tap, and of the centre.
+    let hk = [1.0f32, 4.0, 6.0, 4.0, 1.0].map(|v| v / 16.0);
+    let offset = FORWARD.map(|(tx, ty)| -(hk[(tx + 2) as usize] * hk[ty + 2]).log2());
+    let centre = -(hk[2] * hk[2]).log2();
+
+    for it in 0..p.iterations {
+        let last = it + 1 == p.iterations;
+        // Colour out, in the next iteration's units (σc halves: ×2), or plain after the last.
+        let factor = if last { 1.0 / kc } else { 2.0 };
+        let step = 1usize << it;
+        // Bands tall enough that the 2·step rows recomputed above each cost at most ~1/4.
+        let band = (8 * step).clamp(16, h.div_ceil(4).max(16));
+        let rows = band * 3 * cur.stride;
+        next.data.par_chunks_mut(rows).enumerate().for_each(|(i, out)| {
+            let job = BandJob { geo: &geo, cur: &cur, step, factor, offset, centre, y0: i * band, out };
+            simd::atrous_band(isa, job);
+        });
+        std::mem::swap(&mut cur, &mut next);
+        kc *= 2.0;
+    }
+    for (k, dst) in out.into_iter().enumerate() {
+        for (y, d) in dst.chunks_exact_mut(w).enumerate() {
+            d.copy_from_slice(&cur.row(k, y)[cur.margin..cur.margin + w]);
+        }
+    }
+    Ok(())
+}
+
+/// Output rows `y0..` of one iteration (as many as `out` holds, each three padded planes).
+pub(crate) struct BandJob<'a> {
+    /// Scaled normal x, y, z and depth.
+    geo: &'a Padded,
+    /// Scaled colour of this iteration.
+    cur: &'a Padded,
+    step: usize,
+    /// Multiplies the filtered colour on output.
+    factor: f32,
+    /// −log₂ h of each forward tap.
+    offset: [f32; 12],
+    /// −log₂ h of the centre tap.
+    centre: f32,
+    y0: usize,
+    out: &'a mut [f32],
+}
+
+/// A band's weight ring, reused between calls (fresh pages cost more than the arithmetic).
+static RINGS: Mutex<Vec<Vec<Chunk>>> = Mutex::new(Vec::new());
+
+/// Runs one band of one iteration (see the module documentation); a row's sums live in a
+/// small array, vector by vector.
+#[inline(always)]
+pub(crate) fn band<K: Kernels>(k: K, job: BandJob<'_>) {
+    let BandJob { geo, cur, step, factor, offset, centre, y0, out } = job;
+    let (w, h, wp, m, stride) = (geo.w, geo.h, geo.wp, geo.margin, geo.stride);
+    let y1 = y0 + out.len() / (3 * stride);
+    let (n8, s8, m8) = (wp / LANES, stride / LANES, m / LANES);
+    // Forward weights of rows y − 2·step ..= y: slot per row, 12 padded rows per slot.
+    let first = y0.saturating_sub(2 * step);
+    let slots = (2 * step + 1).min(y1 - first);
+    let mut ring = RINGS.lock().ok().and_then(|mut r| r.pop()).unwrap_or_default();
+    ring.clear();
+    ring.resize(slots * 12 * s8, [0.0; LANES]);
+    // Per row and vector: Σw·c (3) and Σw, side by side (four planes n8 vectors apart would be
+    // 4 KiB apart at 1024 wide, and a load that looks like it aliases the store before it waits).
+    let mut sums = vec![[[0.0f32; LANES]; 4]; n8];
+    let wc = k.exp2_neg(F8::splat(centre));
+    let w_f = w as f32;
+    for y in first..y1 {
+        let slot = (y - first) % slots * 12 * s8;
+        let at = |p: usize, dx: isize| (p * stride + m).wrapping_add_signed(dx);
+        let (centre_geo, centre_colour) = (geo.block(y), cur.block(y));
+        let cg: [&[Chunk]; 4] = array(|p| view(centre_geo, at(p, 0), wp));
+        let cc: [&[Chunk]; 3] = array(|c| view(centre_colour, at(c, 0), wp));
+        let sums = &mut sums[..n8];
+        // The centre tap first.
+        for i in 0..n8 {
+            sums[i] = [(wc * F8(cc[0][i])).0, (wc * F8(cc[1][i])).0, (wc * F8(cc[2][i])).0, wc.0];
+        }
+        // Forward taps of row y: their weights go to the ring and into this row's sums. The row
+        // is done a segment at a time so that its features stay in L1 across the 12 taps.
+        for seg in (0..n8).step_by(SEGMENT) {
+            let seg = seg..(seg + SEGMENT).min(n8);
+            for (o, &(tx, ty)) in FORWARD.iter().enumerate() {
+                let weights = &mut ring[slot + o * s8 + m8..slot + o * s8 + m8 + n8];
+                let dx = tx * step as isize;
+                let yy = y + ty * step;
+                if yy >= h || dx.unsigned_abs() >= w {
+                    weights[seg.clone()].fill([0.0; LANES]);
+                    continue;
+                }
+                let (tap_geo, tap_colour) = (geo.block(yy), cur.block(yy));
+                let tg: [&[Chunk]; 4] = array(|p| view(tap_geo, at(p, dx), wp));
+                let tc: [&[Chunk]; 3] = array(|c| view(tap_colour, at(c, dx), wp));
+                let off = F8::splat(offset[o]);
+                let inner = inner_vectors(w, dx);
+                for i in seg.clone() {
+                    let tap = [F8(tc[0][i]), F8(tc[1][i]), F8(tc[2][i])];
+                    let d = [
+                        F8(tg[0][i]) - F8(cg[0][i]),
+                        F8(tg[1][i]) - F8(cg[1][i]),
+                        F8(tg[2][i]) - F8(cg[2][i]),
+                        F8(tg[3][i]) - F8(cg[3][i]),
+                        tap[0] - F8(cc[0][i]),
+                        tap[1] - F8(cc[1][i]),
+                        tap[2] - F8(cc[2][i]),
+                    ];
+                    // Four short chains instead of one of seven multiply-adds.
+                    let s01 = k.mul_add(d[1], d[1], k.mul_add(d[0], d[0], off));
+                    let s23 = k.mul_add(d[3], d[3], d[2] * d[2]);
+                    let s45 = k.mul_add(d[5], d[5], d[4] * d[4]);
+                    let mut wt = k.exp2_neg((s01 + s23) + (s45 + d[6] * d[6]));
+                    if !inner.contains(&i) {
+                        // Lane l pairs column x + l with column x + dx + l: both must be in the image.
+                        let x = (i * LANES) as f32;
+                        wt = wt * F8::window_mask(x + dx as f32, 0.0, w_f) * F8::window_mask(x, 0.0, w_f);
+                    }
+                    weights[i] = wt.0;
+                    let sum = &mut sums[i];
+                    for c in 0..3 {
+                        sum[c] = k.mul_add(wt, tap[c], F8(sum[c])).0;
+                    }
+                    sum[3] = (F8(sum[3]) + wt).0;
+                }
+            }
+        }
+        if y < y0 {
+            continue;
+        }
+        // Backward taps: the weight the neighbour q − o stored, times that neighbour's colour.
+        // Outside the image the stored weights are zero (margins, masked lanes).
+        for (o, &(tx, ty)) in FORWARD.iter().enumerate() {
+            let dx = tx * step as isize;
+            let Some(py) = y.checked_sub(ty * step) else { continue };
+            if dx.unsigned_abs() >= w {
+                continue;
+            }
+            let start = ((py - first) % slots * 12 * s8 + o * s8) * LANES + m;
+            let weights = view(ring.as_flattened(), start.wrapping_add_signed(-dx), wp);
+            let colour = cur.block(py);
+            let col: [&[Chunk]; 3] = array(|c| view(colour, at(c, -dx), wp));
+            for i in 0..n8 {
+                let wt = F8(weights[i]);
+                let sum = &mut sums[i];
+                for c in 0..3 {
+                    sum[c] = k.mul_add(wt, F8(col[c][i]), F8(sum[c])).0;
+                }
+                sum[3] = (F8(sum[3]) + wt).0;
+            }
+        }
+        // The centre tap always counts (weight ≈ 0.14), so Σw > 0 for image pixels.
+        let row = &mut out[(y - y0) * 3 * stride..(y - y0 + 1) * 3 * stride];
+        for (i, sum) in sums.iter().enumerate() {
+            let scale = F8::splat(factor) / F8(sum[3]);
+            for c in 0..3 {
+                let v = (F8(sum[c]) * scale).0;
+                let x = c * stride + m + i * LANES;
+                let n = LANES.min(w - i * LANES);
+                row[x..x + n].copy_from_slice(&v[..n]);
+            }
+        }
+    }
+    if let Ok(mut rings) = RINGS.lock()
+        && rings.len() < 8
+    {
+        rings.push(ring);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::oracle;
+    use crate::test_util::{PLUS_Z, random_scene, two_halves};
+
+    #[test]
+    fn equals_the_direct_definition() {
+        let scene = random_scene(37, 19, 5);
+        for iterations in [1, 3, 5] {
+            let p = AtrousParams { iterations, sigma_colour: 0.8, sigma_normal: 0.6, sigma_depth: 0.4 };
+            let want = oracle::atrous_direct(scene.input(), &scene.guide(), &p);
+            for isa in [Isa::Portable, Isa::Avx2] {
+                let got =
+                    crate::apply_with(isa, &crate::Filter::Atrous(p), scene.input(), &scene.guide()).expect("valid");
+                for c in 0..3 {
+                    let d = got[c].iter().zip(&want[c]).fold(0.0f32, |m, (a, b)| m.max((a - b).abs()));
+                    assert!(d < 2e-5, "{iterations} iterations, plane {c}: {d}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn keeps_a_depth_edge() {
+        let scene = two_halves(64, 16, 32, [0.2, 0.8], [0.3, 0.6], [PLUS_Z, PLUS_Z]);
+        let out = crate::atrous(scene.input(), &scene.guide(), &AtrousParams::default()).expect("valid");
+        // Across Δz = 0.3 = 3σz the weight is e^−9 ≈ 1.2e-4 times the kernel weight, and the colour
+        // term (Δc = 0.6) cuts it further: bleed stays below 1e-3 of the 0.6 step.
+        for (i, v) in out[0].iter().enumerate() {
+            let want = if i % 64 < 32 { 0.2 } else { 0.8 };
+            assert!((v - want).abs() < 6e-4, "pixel {i}: {v}");
+        }
+    }
+}

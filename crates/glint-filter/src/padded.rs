@@ -1,0 +1,87 @@
+//! Planes with zero margins left and right, so that the weighted filters load eight
+//! neighbours at any tap offset without a bounds branch per lane (taps that fall outside the
+//! image are then given weight zero by a mask, never read from another row).
+//!
+//! The planes of one row are stored side by side (row-interleaved): a kernel reading all of a
+//! pixel's features takes one slice per row and lets the compiler check its bounds once.
+
+use crate::lanes::{Chunk, F8, LANES, NanIfNotFinite};
+
+/// `count` planes of `h` rows, row-interleaved: plane k of row y starts at
+/// `(y·count + k)·stride`, with image column x at `margin + x`. Columns outside `0..w` hold
+/// zeros.
+#[derive(Clone, Debug)]
+pub(crate) struct Padded {
+    pub w: usize,
+    pub h: usize,
+    /// `w` rounded up to whole vectors.
+    pub wp: usize,
+    pub margin: usize,
+    pub stride: usize,
+    pub count: usize,
+    pub data: Vec<f32>,
+}
+
+impl Padded {
+    /// `count` zero planes for a `w`×`h` image whose kernels reach `reach` columns sideways.
+    pub(crate) fn zeros(w: usize, h: usize, reach: usize, count: usize) -> Self {
+        let wp = w.div_ceil(LANES) * LANES;
+        let margin = reach.div_ceil(LANES) * LANES;
+        // An odd number of vectors per plane row keeps the planes of a row out of one L1 set.
+        let stride = ((margin + wp + margin) / LANES) | 1;
+        let stride = stride * LANES;
+        Self { w, h, wp, margin, stride, count, data: vec![0.0; h * count * stride] }
+    }
+
+    /// Plane `k` := `f(src)` inside the image. Returns whether every value of `src` was
+    /// finite (checked on the way: `v − v` is 0 exactly when v is finite).
+    pub(crate) fn fill(&mut self, k: usize, src: &[f32], f: impl Fn(f32) -> f32) -> bool {
+        let (w, m, stride) = (self.w, self.margin, self.stride);
+        let mut check = F8::ZERO;
+        for (block, s) in self.data.chunks_exact_mut(self.count * stride).zip(src.chunks_exact(w)) {
+            let row = &mut block[k * stride + m..k * stride + m + w];
+            let (full, tail) = s.as_chunks::<LANES>();
+            for (d, c) in row.chunks_mut(LANES).zip(full) {
+                let v = F8(*c);
+                check += v.nan_if_not_finite();
+                for (d, &v) in d.iter_mut().zip(c) {
+                    *d = f(v);
+                }
+            }
+            for (d, &v) in row[full.len() * LANES..].iter_mut().zip(tail) {
+                check.0[0] += v.nan_if_not_finite();
+                *d = f(v);
+            }
+        }
+        check == F8::ZERO
+    }
+
+    /// All planes of row `y`, side by side.
+    #[inline(always)]
+    pub(crate) fn block(&self, y: usize) -> &[f32] {
+        let n = self.count * self.stride;
+        &self.data[y * n..(y + 1) * n]
+    }
+
+    /// The padded row `y` of plane `k`.
+    #[inline(always)]
+    pub(crate) fn row(&self, k: usize, y: usize) -> &[f32] {
+        let start = (y * self.count + k) * self.stride;
+        &self.data[start..start + self.stride]
+    }
+}
+
+/// The `wp` floats of `block` from `start` on, as vectors: views of one row that are all
+/// `wp / 8` long, so that indexing them by a vector index needs no further bounds check.
+#[inline(always)]
+pub(crate) fn view(block: &[f32], start: usize, wp: usize) -> &[Chunk] {
+    block[start..start + wp].as_chunks::<LANES>().0
+}
+
+/// The vectors i whose pixels x = 8i.. and partners x + dx.. are all inside `0..w`.
+#[inline(always)]
+pub(crate) fn inner_vectors(w: usize, dx: isize) -> std::ops::Range<usize> {
+    let lo = (-dx).max(0) as usize;
+    let hi = w.saturating_sub(dx.max(0) as usize);
+    lo.div_ceil(LANES)..hi / LANES
+}
