@@ -7,7 +7,7 @@ use std::path::PathBuf;
 #[command(
     name = "glint",
     version,
-    about = "A fast CPU renderer: Whitted ray tracing (path tracing, point clouds and skies to come)."
+    about = "A fast CPU renderer: Whitted ray tracing, path tracing with guided-filtered indirect light, skies."
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -17,13 +17,19 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Render a scene (.toml) or a model file (.obj, .ply, .gltf, .glb); the demo scene without one.
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Benchmarks (ray throughput, Whitted frames).
     #[command(subcommand)]
     Bench(BenchCommand),
     /// Sky maps: convert between six faces, crosses, strips and lat-long maps (docs/skies.md).
     #[command(subcommand)]
     Sky(SkyCommand),
+    /// Measure an image against a reference: MSE, relMSE, PSNR, SSIM, and a false-colour error
+    /// image (docs/compare.md).
+    Compare(CompareArgs),
+    /// Filter the indirect light of a path-mode AOV EXR (docs/aovs.md): guided, bilateral or
+    /// A-Trous, guided by its normal and depth channels.
+    Filter(FilterArgs),
 }
 
 #[derive(Args, Debug, Clone, Default)]
@@ -53,9 +59,16 @@ pub struct RenderArgs {
     pub width: Option<u32>,
     #[arg(long)]
     pub height: Option<u32>,
-    /// Samples per pixel, a square number (N×N stratified supersampling): 1, 4, 9, 16, ...
+    /// Samples per pixel. Whitted: a square number (N×N stratified supersampling): 1, 4, 9,
+    /// 16, ...; path: any number (per pass with --time).
     #[arg(long)]
     pub spp: Option<u32>,
+    /// Rendering mode: whitted (ray tracing, Phong) or path (path tracing, indirect light
+    /// filtered).
+    #[arg(long, value_enum, default_value = "whitted")]
+    pub mode: ModeArg,
+    #[command(flatten)]
+    pub path: PathArgs,
     /// Worker threads (default: every core).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -79,6 +92,104 @@ pub struct RenderArgs {
     #[command(flatten)]
     pub sky: SkyArgs,
     /// Print no progress bar or summary.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, ValueEnum)]
+pub enum ModeArg {
+    #[default]
+    Whitted,
+    Path,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, ValueEnum)]
+pub enum FilterArg {
+    /// Guided image filter (He et al. 2010) on normal and depth: the paper's method.
+    #[default]
+    Guided,
+    /// Cross-bilateral filter (brute force; the quality reference, slow).
+    Bilateral,
+    /// Edge-avoiding A-Trous wavelet filter (Dammertz et al. 2010).
+    Atrous,
+    /// No filter: plain path tracing, every sample traces its own indirect light.
+    None,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, ValueEnum)]
+pub enum GuideArg {
+    /// Grey normal (Rec. 709 luma of (n+1)/2).
+    #[value(name = "1d")]
+    Grey,
+    /// The normal.
+    #[value(name = "3d")]
+    Normal,
+    /// Normal and depth.
+    #[default]
+    #[value(name = "4d")]
+    NormalDepth,
+}
+
+/// Filter settings shared by `glint render --mode path` and `glint filter`.
+#[derive(Args, Debug, Clone, Default)]
+pub struct FilterOptions {
+    /// Guided filter: guide channels.
+    #[arg(long, value_enum, default_value = "4d")]
+    pub guide: GuideArg,
+    /// Window radius in pixels (guided, bilateral; default: scaled with the image width, 28 at
+    /// 1024 pixels).
+    #[arg(long, value_name = "PX")]
+    pub radius: Option<usize>,
+    /// Guided filter: regularisation of the normal channels.
+    #[arg(long = "eps-normal", value_name = "X", allow_hyphen_values = true)]
+    pub eps_normal: Option<f32>,
+    /// Guided filter: regularisation of the depth channel.
+    #[arg(long = "eps-depth", value_name = "X", allow_hyphen_values = true)]
+    pub eps_depth: Option<f32>,
+    /// A-Trous: iterations (steps 1, 2, 4, ...).
+    #[arg(long, value_name = "N")]
+    pub iterations: Option<u32>,
+}
+
+/// Path-mode options of `glint render`.
+#[derive(Args, Debug, Clone, Default)]
+pub struct PathArgs {
+    /// Path mode: image-space filter of the indirect light.
+    #[arg(long, value_enum, default_value = "guided")]
+    pub filter: FilterArg,
+    /// Path mode: indirect bounces (0 = direct light only).
+    #[arg(long = "max-bounces", value_name = "N")]
+    pub max_bounces: Option<u32>,
+    /// Path mode: render passes of --spp samples until this many seconds are spent.
+    #[arg(long, value_name = "SECONDS", allow_hyphen_values = true)]
+    pub time: Option<f64>,
+    /// Path mode: firefly clamp — the largest indirect radiance one sample may bring (biased;
+    /// off by default).
+    #[arg(long, value_name = "X", allow_hyphen_values = true)]
+    pub clamp: Option<f32>,
+    /// Path mode: filter the diffuse light of area lights and the sky too (not only the
+    /// indirect light); point, spot and directional lights stay sharp.
+    #[arg(long = "filter-area-lights")]
+    pub filter_area_lights: bool,
+    #[command(flatten)]
+    pub filter_options: FilterOptions,
+}
+
+/// Arguments of `glint filter`.
+#[derive(Args, Debug)]
+pub struct FilterArgs {
+    /// An EXR written by `glint render --mode path` (R, G, B, Albedo.*, Ns.*, Z, Indirect.*).
+    pub input: PathBuf,
+    /// Output: .exr (every channel, the beauty and Indirect filtered) or .png (the beauty).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    #[arg(long, value_enum, default_value = "guided")]
+    pub filter: FilterArg,
+    #[command(flatten)]
+    pub filter_options: FilterOptions,
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print no summary.
     #[arg(long, short)]
     pub quiet: bool,
 }
@@ -134,6 +245,65 @@ pub enum BenchCommand {
     Rays(BenchRaysArgs),
     /// Time Whitted frames (the thesis's benchmark scene by default).
     Whitted(BenchWhittedArgs),
+    /// The guided-filtering paper's table 2: filter times on a rendered indirect buffer.
+    Filters(BenchFiltersArgs),
+    /// The guided-filtering paper's table 1 (render times) and figure 8 (MSE against a
+    /// converged reference, with a contact sheet).
+    Gi(BenchGiArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct BenchFiltersArgs {
+    /// Folder of the shared test data (scenes/*.toml refer to models in it).
+    #[arg(long, default_value = "../shared/data")]
+    pub data: PathBuf,
+    #[arg(long, default_value_t = 1024)]
+    pub width: u32,
+    #[arg(long, default_value_t = 768)]
+    pub height: u32,
+    /// Timed runs per filter (the median is reported; bilateral runs at most 3).
+    #[arg(long, default_value_t = 11)]
+    pub reps: usize,
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+#[derive(Args, Debug)]
+pub struct BenchGiArgs {
+    /// Folder of the shared test data (scenes/*.toml refer to models in it).
+    #[arg(long, default_value = "../shared/data")]
+    pub data: PathBuf,
+    /// Comma-separated subset of sponza, cornell-dragon, buddha, cornell-box.
+    #[arg(long)]
+    pub scenes: Option<String>,
+    /// Size of the timed frames (table 1).
+    #[arg(long, default_value_t = 1024)]
+    pub width: u32,
+    #[arg(long, default_value_t = 768)]
+    pub height: u32,
+    /// Timed frames per setting (the median is reported).
+    #[arg(long, default_value_t = 5)]
+    pub reps: usize,
+    /// Size of the quality comparison (figure 8).
+    #[arg(long = "quality-width", default_value_t = 512)]
+    pub quality_width: u32,
+    #[arg(long = "quality-height", default_value_t = 384)]
+    pub quality_height: u32,
+    /// Samples per pixel of the reference (cached in --out).
+    #[arg(long = "ref-spp", default_value_t = 1024)]
+    pub ref_spp: u32,
+    /// Indirect bounces in the quality comparison.
+    #[arg(long, default_value_t = 2)]
+    pub bounces: u32,
+    /// Where references, images and the contact sheet go.
+    #[arg(long, default_value = "target/bench-gi")]
+    pub out: PathBuf,
+    #[arg(long = "skip-times")]
+    pub skip_times: bool,
+    #[arg(long = "skip-quality")]
+    pub skip_quality: bool,
+    #[arg(long)]
+    pub threads: Option<usize>,
 }
 
 #[derive(Args, Debug)]
@@ -226,4 +396,26 @@ pub enum SkyLayoutArg {
     VerticalStrip,
     /// One 2:1 equirectangular image.
     Latlong,
+}
+
+/// Arguments of `glint compare` (docs/compare.md).
+#[derive(Args, Debug)]
+pub struct CompareArgs {
+    /// The image to measure: PNG, JPEG, TGA, BMP (sRGB, decoded to linear), HDR or EXR (its
+    /// R, G, B channels).
+    #[arg(value_name = "A")]
+    pub image: PathBuf,
+    /// The reference image, of the same size.
+    #[arg(value_name = "B")]
+    pub reference: PathBuf,
+    /// Write a false-colour picture of the per-pixel error (RMS of the R, G, B differences,
+    /// inferno colour map): .png (or .jpg, .exr, .hdr).
+    #[arg(long, value_name = "OUT.png")]
+    pub diff: Option<PathBuf>,
+    /// The error shown as the top colour of --diff (default: the 99th percentile of the error).
+    #[arg(long = "diff-scale", value_name = "X", requires = "diff", allow_hyphen_values = true)]
+    pub diff_scale: Option<f32>,
+    /// Print one JSON object instead of the table.
+    #[arg(long)]
+    pub json: bool,
 }

@@ -169,6 +169,7 @@ impl PixelAccumulator {
             albedo: self.albedo * inv_hits,
             depth: self.depth * inv_hits,
             coverage,
+            ..FilmPixel::default()
         }
     }
 }

@@ -6,4 +6,8 @@ use thiserror::Error;
 pub enum RenderError {
     #[error("invalid render setting: {0}")]
     InvalidSetting(String),
+    /// The image-space filter refused its input (a bug upstream: the renderer's buffers are
+    /// finite and of one size).
+    #[error("filter: {0}")]
+    Filter(String),
 }

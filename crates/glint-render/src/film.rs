@@ -14,11 +14,27 @@ pub struct FilmPixel {
     pub albedo: Rgb,
     pub depth: f32,
     pub coverage: f32,
+    /// Path mode: direct light (next-event estimation at the first non-delta vertex).
+    pub direct: Rgb,
+    /// Path mode: diffuse indirect light, incident and demodulated (the beauty's diffuse
+    /// indirect part is `albedo × indirect`), as it went into the beauty (filtered or not).
+    pub indirect: Rgb,
+    /// Path mode: samples that went into the pixel.
+    pub samples: f32,
 }
 
 impl Default for FilmPixel {
     fn default() -> Self {
-        Self { colour: Rgb::ZERO, normal: Vec3::ZERO, albedo: Rgb::ZERO, depth: f32::INFINITY, coverage: 0.0 }
+        Self {
+            colour: Rgb::ZERO,
+            normal: Vec3::ZERO,
+            albedo: Rgb::ZERO,
+            depth: f32::INFINITY,
+            coverage: 0.0,
+            direct: Rgb::ZERO,
+            indirect: Rgb::ZERO,
+            samples: 0.0,
+        }
     }
 }
 
@@ -30,11 +46,13 @@ pub struct Film {
     pub width: u32,
     pub height: u32,
     pub pixels: Vec<FilmPixel>,
+    /// The path mode's AOVs (Direct, Indirect, SampleCount) are meaningful and written.
+    pub path_aovs: bool,
 }
 
 impl Film {
     pub fn new(width: u32, height: u32) -> Self {
-        Self { width, height, pixels: vec![FilmPixel::default(); width as usize * height as usize] }
+        Self { width, height, pixels: vec![FilmPixel::default(); width as usize * height as usize], path_aovs: false }
     }
 
     pub fn pixel(&self, x: u32, y: u32) -> &FilmPixel {
@@ -58,7 +76,8 @@ impl Film {
     }
 
     /// Beauty and every AOV as named channels (EXR names: pbrt-v4's where it has them):
-    /// R G B A, Albedo.R/G/B, Ns.X/Y/Z, Z.
+    /// R G B A, Albedo.R/G/B, Ns.X/Y/Z, Z, and in path mode Direct.R/G/B, Indirect.R/G/B,
+    /// SampleCount (docs/aovs.md).
     pub fn aov_image(&self) -> Image {
         let mut img = self.beauty_image(true);
         let chans: [ChannelReader; 7] = [
@@ -72,6 +91,21 @@ impl Film {
         ];
         for (name, f) in chans {
             img.channels.push(glint_image::Channel { name: name.into(), data: self.pixels.iter().map(f).collect() });
+        }
+        if self.path_aovs {
+            let chans: [ChannelReader; 7] = [
+                ("Direct.R", |p| p.direct.x),
+                ("Direct.G", |p| p.direct.y),
+                ("Direct.B", |p| p.direct.z),
+                ("Indirect.R", |p| p.indirect.x),
+                ("Indirect.G", |p| p.indirect.y),
+                ("Indirect.B", |p| p.indirect.z),
+                ("SampleCount", |p| p.samples),
+            ];
+            for (name, f) in chans {
+                img.channels
+                    .push(glint_image::Channel { name: name.into(), data: self.pixels.iter().map(f).collect() });
+            }
         }
         img
     }

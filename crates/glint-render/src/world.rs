@@ -83,7 +83,12 @@ pub struct SurfaceHit {
     pub uv: Vec2,
     pub material: u32,
     pub object: u32,
+    /// Triangle index within the object's mesh; [`NO_PRIM`] for spheres and planes.
+    pub prim: u32,
 }
+
+/// `SurfaceHit::prim` of surfaces that are not triangles.
+pub const NO_PRIM: u32 = u32::MAX;
 
 impl SurfaceHit {
     /// A ray leaving the surface in direction `dir`, starting outside the error bound on the
@@ -103,6 +108,15 @@ impl SurfaceHit {
         let dist = d.length();
         Ray::segment(origin, d / dist, 0.0, dist)
     }
+}
+
+/// A light-emitting triangle in world space.
+#[derive(Clone, Copy, Debug)]
+pub struct EmissiveTriangle {
+    pub object: u32,
+    pub prim: u32,
+    pub vertices: [Vec3; 3],
+    pub emission: Rgb,
 }
 
 /// Statistics of the acceleration structures (reported by the CLI and benchmarks).
@@ -592,6 +606,7 @@ impl World {
             uv: Vec2::new(position.dot(frame.x), position.dot(frame.y)),
             material: p.material,
             object: p.object,
+            prim: NO_PRIM,
         }
     }
 
@@ -660,7 +675,41 @@ impl World {
             (position, p_error, ng, ns)
         };
         let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
-        SurfaceHit { t, position, p_error, geometric_normal: ng, shading_normal: ns, uv, material, object: inst.object }
+        let prim = if matches!(inst.shape, InstanceShape::Mesh(_)) { prim } else { NO_PRIM };
+        SurfaceHit {
+            t,
+            position,
+            p_error,
+            geometric_normal: ng,
+            shading_normal: ns,
+            uv,
+            material,
+            object: inst.object,
+            prim,
+        }
+    }
+
+    /// Every triangle whose material emits light, in world space, with its object and
+    /// triangle index (the path tracer's area lights).
+    pub fn emissive_triangles(&self) -> Vec<EmissiveTriangle> {
+        let mut out = Vec::new();
+        for inst in &self.instances {
+            let InstanceShape::Mesh(m) = inst.shape else { continue };
+            let mesh = &self.meshes[m];
+            for (prim, t) in mesh.triangles.iter().enumerate() {
+                let material = match &mesh.triangle_materials {
+                    Some(ms) => ms[prim],
+                    None => inst.material,
+                };
+                let emission = self.scene.materials[material as usize].emission;
+                if emission.max_element() <= 0.0 {
+                    continue;
+                }
+                let vertices = t.map(|i| inst.world_from_object.transform_point3(mesh.positions[i as usize]));
+                out.push(EmissiveTriangle { object: inst.object, prim: prim as u32, vertices, emission });
+            }
+        }
+        out
     }
 
     /// Every triangle of the world in world space (for the Embree comparison dumps).

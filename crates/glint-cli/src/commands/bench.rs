@@ -30,6 +30,8 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
     match cmd {
         BenchCommand::Rays(a) => rays(&a),
         BenchCommand::Whitted(a) => whitted(&a),
+        BenchCommand::Filters(a) => super::bench_gi::filters(&a),
+        BenchCommand::Gi(a) => super::bench_gi::gi(&a),
     }
 }
 

@@ -1,6 +1,9 @@
 //! One module per subcommand.
 
 mod bench;
+mod bench_gi;
+mod compare;
+mod filter;
 mod render;
 mod sky;
 
@@ -13,5 +16,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Some(Command::Render(args)) => render::run(&args),
         Some(Command::Bench(b)) => bench::run(b),
         Some(Command::Sky(s)) => sky::run(s),
+        Some(Command::Compare(args)) => compare::run(&args),
+        Some(Command::Filter(args)) => filter::run(&args),
     }
 }

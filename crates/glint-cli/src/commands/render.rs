@@ -1,14 +1,16 @@
 //! `glint render`: load, apply command-line overrides, render, write atomically.
 
-use crate::cli::{FlipArg, RenderArgs, SkyArgs};
+use crate::cli::{FilterArg, FilterOptions, FlipArg, GuideArg, ModeArg, RenderArgs, SkyArgs};
 use crate::input::{self, parse_vec3};
 use crate::progress::LazyProgress;
 use anyhow::{Context, Result, bail};
+use glint_filter::{AtrousParams, BilateralParams, Filter, GuideChannels, GuidedParams};
 use glint_formats::sky::{FaceTransform, SkyLoadOptions, SkySource, load_sky};
 use glint_image::{PngOptions, ToneMap};
-use glint_render::{RenderSettings, World};
+use glint_render::{PathSettings, RenderSettings, World, render_path};
 use glint_scene::{Camera, Fov, Scene, Sky, SkyTransform};
 use std::path::Path;
+use std::time::Duration;
 
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum OutputKind {
@@ -32,7 +34,9 @@ pub fn apply_overrides(scene: &mut Scene, args: &RenderArgs) -> Result<()> {
     if let Some(h) = args.height {
         scene.render.height = h;
     }
-    if let Some(spp) = args.spp {
+    if let Some(spp) = args.spp
+        && args.mode == ModeArg::Whitted
+    {
         let n = (spp as f64).sqrt().round() as u32;
         if spp == 0 || n * n != spp {
             bail!("--spp {spp}: Whitted mode takes N×N stratified samples; use a square number (1, 4, 9, 16, ...)");
@@ -126,6 +130,75 @@ fn apply_sky(scene: &mut Scene, args: &SkyArgs, input: Option<&Path>) -> Result<
     Ok(())
 }
 
+/// The filter the options describe, its defaults scaled to an image `width` pixels wide.
+pub fn filter_from_args(kind: FilterArg, o: &FilterOptions, width: u32) -> Result<Filter> {
+    let w = width as usize;
+    let check_eps = |name: &str, v: Option<f32>| -> Result<()> {
+        if let Some(e) = v
+            && !(e.is_finite() && e > 0.0)
+        {
+            bail!("--{name} {e}: must be a finite number > 0");
+        }
+        Ok(())
+    };
+    check_eps("eps-normal", o.eps_normal)?;
+    check_eps("eps-depth", o.eps_depth)?;
+    if let Some(r) = o.radius
+        && !(1..=1024).contains(&r)
+    {
+        bail!("--radius {r}: must be 1..=1024 pixels");
+    }
+    if let Some(i) = o.iterations
+        && !(1..=10).contains(&i)
+    {
+        bail!("--iterations {i}: must be 1..=10");
+    }
+    Ok(match kind {
+        FilterArg::None => Filter::None,
+        FilterArg::Guided => {
+            let d = GuidedParams::for_width(w);
+            Filter::Guided(GuidedParams {
+                radius: o.radius.unwrap_or(d.radius),
+                eps_normal: o.eps_normal.unwrap_or(d.eps_normal),
+                eps_depth: o.eps_depth.unwrap_or(d.eps_depth),
+                channels: match o.guide {
+                    GuideArg::Grey => GuideChannels::Grey,
+                    GuideArg::Normal => GuideChannels::Normal,
+                    GuideArg::NormalDepth => GuideChannels::NormalDepth,
+                },
+            })
+        }
+        FilterArg::Bilateral => {
+            let d = BilateralParams::for_width(w);
+            let radius = o.radius.unwrap_or(d.radius);
+            Filter::Bilateral(BilateralParams { radius, sigma_spatial: radius as f32 * 0.5, ..d })
+        }
+        FilterArg::Atrous => {
+            let d = AtrousParams::default();
+            Filter::Atrous(AtrousParams { iterations: o.iterations.unwrap_or(d.iterations), ..d })
+        }
+    })
+}
+
+/// Path-mode settings from the command line.
+fn path_settings(args: &RenderArgs, width: u32) -> Result<PathSettings> {
+    let p = &args.path;
+    let time_budget = match p.time {
+        Some(t) if t.is_finite() && t > 0.0 && t < 1e6 => Some(Duration::from_secs_f64(t)),
+        Some(t) => bail!("--time {t}: must be a number of seconds > 0"),
+        None => None,
+    };
+    Ok(PathSettings {
+        spp: args.spp.unwrap_or(1),
+        max_bounces: p.max_bounces.unwrap_or(PathSettings::default().max_bounces),
+        filter: filter_from_args(p.filter, &p.filter_options, width)?,
+        time_budget,
+        clamp_indirect: p.clamp,
+        filter_area_direct: p.filter_area_lights,
+        ..PathSettings::default()
+    })
+}
+
 pub fn run(args: &RenderArgs) -> Result<()> {
     let kind = output_kind(&args.output)?;
     let tone_map: ToneMap = args
@@ -141,12 +214,53 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let mut settings = RenderSettings::from_defaults(&scene.render);
     settings.seed = args.seed;
 
-    let (film, stats, world_stats) = pool.install(|| -> Result<_> {
+    let path = match args.mode {
+        ModeArg::Path => Some(path_settings(args, settings.width)?),
+        ModeArg::Whitted => None,
+    };
+
+    let (film, summary) = pool.install(|| -> Result<_> {
         let world = World::new(scene);
         let progress = LazyProgress::new(settings.height as u64, !args.quiet);
-        let (film, stats) = glint_render::render_with_progress(&world, &settings, &|rows| progress.advance(rows))?;
+        let advance = |rows| progress.advance(rows);
+        let built = format!("build {:.1} ms, {} triangles", world.stats.build_ms, world.stats.triangles);
+        let result = match &path {
+            None => {
+                let (film, stats) = glint_render::render_with_progress(&world, &settings, &advance)?;
+                let n = settings.samples_per_side;
+                let summary = format!(
+                    "whitted {}x{} at {} spp in {:.3} s ({:.1} Mrays/s, {built}), {} NaN/inf samples dropped",
+                    settings.width,
+                    settings.height,
+                    n * n,
+                    stats.elapsed.as_secs_f64(),
+                    stats.mrays_per_second(),
+                    stats.rejected_samples,
+                );
+                (film, summary)
+            }
+            Some(p) => {
+                let (film, stats) = render_path(&world, &settings, p, &advance)?;
+                let summary = format!(
+                    "path {}x{} at {} spp ({} pass{}, {} bounces, filter {}) in {:.3} s (trace {:.3} s at {:.1} Mrays/s, filter {:.1} ms, {built}), {} NaN/inf samples dropped",
+                    settings.width,
+                    settings.height,
+                    stats.samples_per_pixel,
+                    stats.passes,
+                    if stats.passes == 1 { "" } else { "es" },
+                    p.max_bounces,
+                    filter_name(&p.filter),
+                    stats.elapsed.as_secs_f64(),
+                    stats.trace.as_secs_f64(),
+                    stats.mrays_per_second(),
+                    stats.filter.as_secs_f64() * 1e3,
+                    stats.rejected_samples,
+                );
+                (film, summary)
+            }
+        };
         progress.finish();
-        Ok((film, stats, world.stats))
+        Ok(result)
     })?;
 
     let image = match kind {
@@ -157,18 +271,23 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     glint_image::write_image(&args.output, &image, &options)
         .with_context(|| format!("cannot write {}", args.output.display()))?;
     if !args.quiet {
-        eprintln!(
-            "glint: {}x{} at {} spp in {:.3} s ({:.1} Mrays/s, build {:.1} ms, {} triangles), {} NaN/inf samples dropped -> {}",
-            settings.width,
-            settings.height,
-            settings.samples_per_side * settings.samples_per_side,
-            stats.elapsed.as_secs_f64(),
-            stats.mrays_per_second(),
-            world_stats.build_ms,
-            world_stats.triangles,
-            stats.rejected_samples,
-            args.output.display()
-        );
+        eprintln!("glint: {summary} -> {}", args.output.display());
     }
     Ok(())
+}
+
+pub fn filter_name(f: &Filter) -> String {
+    match f {
+        Filter::None => "none".into(),
+        Filter::Guided(p) => {
+            let dims = match p.channels {
+                GuideChannels::Grey => "1-D",
+                GuideChannels::Normal => "3-D",
+                GuideChannels::NormalDepth => "4-D",
+            };
+            format!("guided {dims} r={}", p.radius)
+        }
+        Filter::Bilateral(p) => format!("bilateral r={}", p.radius),
+        Filter::Atrous(p) => format!("A-Trous {} iterations", p.iterations),
+    }
 }

@@ -1,0 +1,305 @@
+//! `glint bench filters` and `glint bench gi`: the guided-filtering paper's tables and figure,
+//! reproduced on this machine (Bauszat et al. 2011: table 2 = filter times, table 1 = render
+//! times, figure 8 = MSE against a converged reference).
+//!
+//! Scenes are the repository's scenes/*.toml, embedded in the binary, whose model paths point
+//! into ../shared/data; `--data DIR` points them elsewhere.
+
+use crate::cli::{BenchFiltersArgs, BenchGiArgs};
+use crate::input;
+use anyhow::{Context, Result, bail};
+use glint_filter::{AtrousParams, BilateralParams, Filter, Guide, GuideChannels, GuidedParams};
+use glint_image::{Image, PngOptions};
+use glint_render::{Film, PathSettings, RenderSettings, World, render_path};
+use glint_scene::Scene;
+use std::io::Write;
+use std::path::Path;
+use std::time::Instant;
+
+macro_rules! out {
+    ($($arg:tt)*) => {
+        writeln!(std::io::stdout(), $($arg)*).context("cannot write to standard output")?
+    };
+}
+
+/// The scenes of the paper's comparisons, built from ../shared/data.
+const SCENES: [(&str, &str); 4] = [
+    ("sponza", include_str!("../../../../scenes/sponza.toml")),
+    ("cornell-dragon", include_str!("../../../../scenes/cornell-dragon.toml")),
+    ("buddha", include_str!("../../../../scenes/buddha.toml")),
+    ("cornell-box", include_str!("../../../../scenes/cornell-box.toml")),
+];
+
+/// How the scene files name the data folder.
+const DATA_PREFIX: &str = "../../shared/data/";
+
+fn load_scene(name: &str, text: &str, data: &Path) -> Result<Scene> {
+    if !data.is_dir() {
+        bail!("data folder {} not found (give it with --data DIR)", data.display());
+    }
+    let data = data.canonicalize().with_context(|| format!("cannot resolve {}", data.display()))?;
+    let text = text.replace(DATA_PREFIX, &format!("{}/", data.display()));
+    let loaded = glint_formats::load_scene_str(&text, Path::new("."), &format!("scenes/{name}.toml"))
+        .with_context(|| format!("cannot load scene {name}"))?;
+    Ok(loaded.scene)
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
+}
+
+fn settings(scene: &Scene, width: u32, height: u32, seed: u64) -> RenderSettings {
+    let mut s = RenderSettings::from_defaults(&scene.render);
+    s.width = width;
+    s.height = height;
+    s.seed = seed;
+    s
+}
+
+fn path_settings(spp: u32, bounces: u32, filter: Filter) -> PathSettings {
+    PathSettings { spp, max_bounces: bounces, filter, ..PathSettings::default() }
+}
+
+/// The filters of the comparisons, with the paper's settings scaled to the image width; the
+/// flag also filters the diffuse light of area lights and the sky (glint's extension).
+fn named_filters(width: usize) -> [(&'static str, Filter, bool); 5] {
+    let guided = Filter::Guided(GuidedParams::for_width(width));
+    [
+        ("unfiltered", Filter::None, false),
+        ("bilateral", Filter::Bilateral(BilateralParams::for_width(width)), false),
+        ("a-trous", Filter::Atrous(AtrousParams::default()), false),
+        ("guided", guided, false),
+        ("guided+area", guided, true),
+    ]
+}
+
+/// Table 2: filter times on a real indirect buffer.
+pub fn filters(a: &BenchFiltersArgs) -> Result<()> {
+    let pool = input::thread_pool(a.threads)?;
+    let (name, text) = SCENES[0];
+    let scene = load_scene(name, text, &a.data)?;
+    pool.install(|| -> Result<()> {
+        let (w, h) = (a.width, a.height);
+        let world = World::new(scene);
+        let (film, _) =
+            render_path(&world, &settings(&world.scene, w, h, 0), &path_settings(1, 1, Filter::None), &|_| {})?;
+        let buffers = GuideBuffers::from_film(&film);
+        let guide = buffers.guide();
+        let input = [&buffers.indirect[0][..], &buffers.indirect[1][..], &buffers.indirect[2][..]];
+        let base = GuidedParams::for_width(w as usize);
+        let mut cases: Vec<(String, Filter)> = Vec::new();
+        for r in [16, 24, 32] {
+            let p = BilateralParams { radius: r, ..BilateralParams::for_width(w as usize) };
+            cases.push((format!("cross-bilateral r={r}"), Filter::Bilateral(p)));
+        }
+        for it in [4, 5, 6] {
+            cases.push((
+                format!("A-Trous {it} iterations"),
+                Filter::Atrous(AtrousParams { iterations: it, ..AtrousParams::default() }),
+            ));
+        }
+        for (label, channels) in
+            [("1-D", GuideChannels::Grey), ("3-D", GuideChannels::Normal), ("4-D", GuideChannels::NormalDepth)]
+        {
+            cases
+                .push((format!("guided {label} r={}", base.radius), Filter::Guided(GuidedParams { channels, ..base })));
+        }
+        for r in [8, 16, 32, 64] {
+            cases.push((format!("guided 4-D r={r}"), Filter::Guided(GuidedParams { radius: r, ..base })));
+        }
+        out!(
+            "# glint bench filters: {name} indirect buffer {w}x{h}, {} threads, median of {} runs",
+            rayon::current_num_threads(),
+            a.reps
+        );
+        out!("{:<28} {:>10} {:>10}", "filter", "median ms", "min ms");
+        for (label, filter) in &cases {
+            let reps = if matches!(filter, Filter::Bilateral(_)) { a.reps.min(3) } else { a.reps };
+            let mut times = Vec::with_capacity(reps);
+            for _ in 0..reps.max(1) {
+                let t = Instant::now();
+                let outp = glint_filter::apply(filter, input, &guide)?;
+                times.push(t.elapsed().as_secs_f64() * 1e3);
+                std::hint::black_box(outp);
+            }
+            let min = times.iter().copied().fold(f64::INFINITY, f64::min);
+            out!("{:<28} {:>10.2} {:>10.2}", label, median(&mut times), min);
+        }
+        Ok(())
+    })
+}
+
+/// The guide and indirect planes of a film, as the path mode hands them to the filter.
+struct GuideBuffers {
+    indirect: [Vec<f32>; 3],
+    normal: [Vec<f32>; 3],
+    depth: Vec<f32>,
+    width: usize,
+    height: usize,
+}
+
+impl GuideBuffers {
+    fn from_film(film: &Film) -> GuideBuffers {
+        let max_depth = film.pixels.iter().map(|p| p.depth).filter(|d| d.is_finite()).fold(0.0f32, f32::max).max(1e-6);
+        let pick = |f: &dyn Fn(&glint_render::FilmPixel) -> f32| film.pixels.iter().map(f).collect::<Vec<f32>>();
+        GuideBuffers {
+            indirect: [pick(&|p| p.indirect.x), pick(&|p| p.indirect.y), pick(&|p| p.indirect.z)],
+            normal: [pick(&|p| p.normal.x), pick(&|p| p.normal.y), pick(&|p| p.normal.z)],
+            depth: pick(&|p| if p.depth.is_finite() { p.depth / max_depth } else { 2.0 }),
+            width: film.width as usize,
+            height: film.height as usize,
+        }
+    }
+
+    fn guide(&self) -> Guide<'_> {
+        Guide {
+            width: self.width,
+            height: self.height,
+            normal: [&self.normal[0], &self.normal[1], &self.normal[2]],
+            depth: &self.depth,
+        }
+    }
+}
+
+/// Table 1 (render times) and figure 8 (MSE against a reference).
+pub fn gi(a: &BenchGiArgs) -> Result<()> {
+    let pool = input::thread_pool(a.threads)?;
+    let scenes: Vec<(&str, &str)> = SCENES
+        .iter()
+        .copied()
+        .filter(|(name, _)| a.scenes.as_ref().is_none_or(|list| list.split(',').any(|s| s.trim() == *name)))
+        .collect();
+    if scenes.is_empty() {
+        bail!("--scenes: none of {:?} is one of sponza, cornell-dragon, buddha, cornell-box", a.scenes);
+    }
+    pool.install(|| -> Result<()> {
+        if !a.skip_times {
+            out!("# Table 1: render times, {}x{}, guided filter, {} threads, median of {} frames", a.width, a.height, rayon::current_num_threads(), a.reps);
+            out!("{:<16} {:>8} {:>5} {:>10} {:>10} {:>10} {:>9}", "scene", "bounces", "spp", "total ms", "trace ms", "filter ms", "Mrays/s");
+            for &(name, text) in &scenes {
+                let world = World::new(load_scene(name, text, &a.data)?);
+                let s = settings(&world.scene, a.width, a.height, 0);
+                for (bounces, spp) in [(1, 1), (1, 4), (2, 4)] {
+                    let p = path_settings(spp, bounces, Filter::Guided(GuidedParams::for_width(a.width as usize)));
+                    let (mut total, mut trace, mut filter, mut mrays) = (vec![], vec![], vec![], vec![]);
+                    for _ in 0..a.reps.max(1) {
+                        let (_, st) = render_path(&world, &s, &p, &|_| {})?;
+                        total.push(st.elapsed.as_secs_f64() * 1e3);
+                        trace.push(st.trace.as_secs_f64() * 1e3);
+                        filter.push(st.filter.as_secs_f64() * 1e3);
+                        mrays.push(st.mrays_per_second());
+                    }
+                    out!(
+                        "{:<16} {:>8} {:>5} {:>10.1} {:>10.1} {:>10.2} {:>9.2}",
+                        name,
+                        bounces,
+                        spp,
+                        median(&mut total),
+                        median(&mut trace),
+                        median(&mut filter),
+                        median(&mut mrays)
+                    );
+                }
+            }
+        }
+        if a.skip_quality {
+            return Ok(());
+        }
+        std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
+        let (w, h) = (a.quality_width, a.quality_height);
+        out!(
+            "# Figure 8: MSE against a {}-spp plain path-traced reference (seed 1), {}x{}, {} bounces; MSE on linear RGB and on 8-bit sRGB (0..255)",
+            a.ref_spp, w, h, a.bounces
+        );
+        out!("{:<16} {:>4} {:<11} {:>12} {:>12} {:>9} {:>10}", "scene", "spp", "filter", "MSE linear", "MSE sRGB8", "PSNR dB", "time ms");
+        let mut sheet_rows: Vec<Vec<Image>> = Vec::new();
+        for &(name, text) in &scenes {
+            let world = World::new(load_scene(name, text, &a.data)?);
+            let reference = reference_image(&world, name, w, h, a)?;
+            let mut row = vec![reference.clone()];
+            for spp in [1u32, 4] {
+                for (label, filter, filter_area_direct) in named_filters(w as usize) {
+                    let t = Instant::now();
+                    let p = PathSettings { filter_area_direct, ..path_settings(spp, a.bounces, filter) };
+                    let (film, _) = render_path(&world, &settings(&world.scene, w, h, 0), &p, &|_| {})?;
+                    let ms = t.elapsed().as_secs_f64() * 1e3;
+                    let img = film.beauty_image(false);
+                    let report = glint_image::metrics::compare(&img, &reference)?;
+                    out!(
+                        "{:<16} {:>4} {:<11} {:>12.3e} {:>12.2} {:>9.2} {:>10.1}",
+                        name, spp, label, report.mse, report.mse_srgb8, report.psnr_srgb8, ms
+                    );
+                    let file = a.out.join(format!("{name}-{label}-{spp}spp.png"));
+                    glint_image::write_png(&file, &img, &PngOptions::default())
+                        .with_context(|| format!("cannot write {}", file.display()))?;
+                    if spp == 1 && label != "guided+area" {
+                        row.push(img);
+                    }
+                }
+            }
+            sheet_rows.push(row);
+        }
+        let sheet = contact_sheet(&sheet_rows, 2);
+        let file = a.out.join("gi-contact-sheet.png");
+        glint_image::write_png(&file, &sheet, &PngOptions::default()).with_context(|| format!("cannot write {}", file.display()))?;
+        out!("# contact sheet (rows: scenes; columns: reference, then 1 spp unfiltered, bilateral, A-Trous, guided): {}", file.display());
+        Ok(())
+    })
+}
+
+/// The converged reference of a scene: plain path tracing at `ref_spp` with its own seed,
+/// cached as EXR in the output folder.
+fn reference_image(world: &World, name: &str, w: u32, h: u32, a: &BenchGiArgs) -> Result<Image> {
+    let file = a.out.join(format!("{name}-reference-{w}x{h}-{}spp-{}b.exr", a.ref_spp, a.bounces));
+    if file.exists() {
+        let img = glint_image::read_image(&file)
+            .with_context(|| format!("cannot read cached reference {}", file.display()))?;
+        if img.width == w && img.height == h {
+            return Ok(img);
+        }
+    }
+    let t = Instant::now();
+    let (film, _) = render_path(
+        world,
+        &settings(&world.scene, w, h, 1),
+        &path_settings(a.ref_spp, a.bounces, Filter::None),
+        &|_| {},
+    )?;
+    eprintln!("glint: reference for {name} ({} spp) in {:.1} s", a.ref_spp, t.elapsed().as_secs_f64());
+    let img = film.beauty_image(false);
+    glint_image::write_exr(&file, &img).with_context(|| format!("cannot write {}", file.display()))?;
+    Ok(img)
+}
+
+/// Tiles of the images, each shrunk by `shrink` (box filter), rows by rows.
+fn contact_sheet(rows: &[Vec<Image>], shrink: u32) -> Image {
+    let tile_w = rows.iter().flatten().map(|i| i.width / shrink).max().unwrap_or(1);
+    let tile_h = rows.iter().flatten().map(|i| i.height / shrink).max().unwrap_or(1);
+    let cols = rows.iter().map(Vec::len).max().unwrap_or(1) as u32;
+    let (sw, sh) = (tile_w * cols, tile_h * rows.len() as u32);
+    let mut rgb = vec![[0.0f32; 3]; (sw * sh) as usize];
+    for (r, row) in rows.iter().enumerate() {
+        for (c, img) in row.iter().enumerate() {
+            let Some(src) = img.rgb() else { continue };
+            for y in 0..img.height / shrink {
+                for x in 0..img.width / shrink {
+                    let mut acc = [0.0f32; 3];
+                    for dy in 0..shrink {
+                        for dx in 0..shrink {
+                            let p = src[((y * shrink + dy) * img.width + x * shrink + dx) as usize];
+                            for k in 0..3 {
+                                acc[k] += p[k];
+                            }
+                        }
+                    }
+                    let n = (shrink * shrink) as f32;
+                    let (ox, oy) = (c as u32 * tile_w + x, r as u32 * tile_h + y);
+                    rgb[(oy * sw + ox) as usize] = acc.map(|v| v / n);
+                }
+            }
+        }
+    }
+    Image::from_rgb(sw, sh, &rgb)
+}

@@ -1,0 +1,351 @@
+//! The path tracer's reading of glint's material: the thesis's Phong parameters as an
+//! energy-conserving BSDF with delta lobes.
+//!
+//! - Diffuse: `ρd/π` with `ρd = K_d · colour` (texture included).
+//! - Glossy: the normalised (modified) Phong lobe of Lafortune and Willems 1994,
+//!   `ρs (n+2)/(2π) cos^n α`, α between `wi` and the mirror direction of `wo`; white.
+//!   When `K_d · max(colour) + K_s` exceeds 1 both are scaled down so that the surface never
+//!   reflects more than it receives.
+//! - Mirror (delta): `K_refl`, or Schlick's `F` for materials with `f0`.
+//! - Transmission (delta): `K_refr` split by the exact dielectric Fresnel equations (total
+//!   internal reflection goes to the mirror), as the Whitted mode splits it.
+//! - The Phong part is weighted by `1 − K_refl − K_refr` (by `1 − F` with `f0`), so the lobes
+//!   sum to at most 1.
+//!
+//! Lobes are chosen for sampling in proportion to their albedos; the non-delta part is one
+//! mixture density (diffuse and glossy pdfs weighted by their choice probabilities), so a
+//! sampled direction is weighted by the whole non-delta BSDF (one-sample MIS over the lobes).
+
+use crate::whitted::optics::{fresnel_dielectric, reflect, refract};
+use glint_core::colour::luminance;
+use glint_core::sampling::sample_cosine_hemisphere;
+use glint_core::{Frame, Rgb, Vec2, Vec3};
+use glint_scene::Material;
+use std::f32::consts::{FRAC_1_PI, TAU};
+
+/// A material at one hit, seen from one direction.
+#[derive(Clone, Copy, Debug)]
+pub struct Bsdf {
+    /// Shading normal on the side of `wo`.
+    pub normal: Vec3,
+    /// Geometric normal on the side of `wo`.
+    pub geometric: Vec3,
+    /// ρd: the diffuse albedo (the Albedo AOV and the demodulation factor).
+    pub diffuse: Rgb,
+    /// ρs: the glossy lobe's albedo at normal incidence.
+    pub glossy: f32,
+    pub exponent: f32,
+    pub mirror: Rgb,
+    pub transmit: Rgb,
+    /// Refracted direction (None when there is no transmission or under total reflection).
+    refracted: Option<Vec3>,
+    mirror_dir: Vec3,
+    /// Choice probabilities of the four lobes (sum 1 unless the surface is black).
+    p_diffuse: f32,
+    p_glossy: f32,
+    p_mirror: f32,
+}
+
+/// A sampled direction.
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfSample {
+    pub wi: Vec3,
+    /// `f · cos / pdf` (for delta lobes: the lobe's weight over its choice probability).
+    pub weight: Rgb,
+    /// Solid-angle pdf of the non-delta mixture; 0 for a delta lobe.
+    pub pdf: f32,
+    pub delta: bool,
+}
+
+impl Bsdf {
+    /// The BSDF at a hit with shading normal `ns` and geometric normal `ng` (both already on
+    /// the side of `wo`), `entering` when `wo` is outside the surface.
+    pub fn new(m: &Material, albedo: Rgb, wo: Vec3, ns: Vec3, ng: Vec3, entering: bool) -> Bsdf {
+        let cos_o = ns.dot(wo).clamp(0.0, 1.0);
+        let mirror_dir = reflect(-wo, ns);
+        let (mut mirror, mut transmit, phong, mut refracted);
+        refracted = None;
+        if let Some(f) = m.schlick(cos_o) {
+            mirror = f;
+            transmit = Rgb::ZERO;
+            phong = Rgb::ONE - f;
+        } else {
+            let (eta_i, eta_t) = if entering { (1.0, m.ior) } else { (m.ior, 1.0) };
+            let (mut k_refl, mut k_refr) = (m.reflectivity, m.transparency);
+            if m.is_transparent() {
+                refracted = refract(-wo, ns, eta_i / eta_t);
+                let f = match refracted {
+                    Some(_) if m.fresnel => fresnel_dielectric(cos_o, eta_i, eta_t),
+                    Some(_) => 0.0,
+                    None => 1.0,
+                };
+                k_refl = (m.reflectivity + m.transparency * f).min(1.0);
+                k_refr = m.transparency * (1.0 - f);
+            }
+            mirror = Rgb::splat(k_refl);
+            transmit = Rgb::splat(k_refr);
+            phong = Rgb::splat((1.0 - m.reflectivity - m.transparency).clamp(0.0, 1.0));
+        }
+        if transmit == Rgb::ZERO {
+            refracted = None;
+        }
+        // Energy conservation of the Phong pair.
+        let (mut kd, mut ks) = (m.diffuse.max(0.0), m.specular.max(0.0));
+        let total = kd * albedo.max_element() + ks;
+        if total > 1.0 {
+            kd /= total;
+            ks /= total;
+        }
+        let diffuse = phong * albedo * kd;
+        let glossy = ks * phong.element_sum() / 3.0;
+        if refracted.is_none() {
+            transmit = Rgb::ZERO;
+        }
+        if !mirror.is_finite() {
+            mirror = Rgb::ZERO;
+        }
+        let (wd, wg, wm, wt) = (luminance(diffuse), glossy, luminance(mirror), luminance(transmit));
+        let sum = wd + wg + wm + wt;
+        let (p_diffuse, p_glossy, p_mirror) = if sum > 0.0 { (wd / sum, wg / sum, wm / sum) } else { (0.0, 0.0, 0.0) };
+        Bsdf {
+            normal: ns,
+            geometric: ng,
+            diffuse,
+            glossy,
+            exponent: m.shininess.max(0.0),
+            mirror,
+            transmit,
+            refracted,
+            mirror_dir,
+            p_diffuse,
+            p_glossy,
+            p_mirror,
+        }
+    }
+
+    /// Probability that sampling picks a delta lobe.
+    #[inline]
+    pub fn p_delta(&self) -> f32 {
+        (1.0 - self.p_diffuse - self.p_glossy).max(0.0)
+    }
+
+    /// Probability that sampling picks the non-delta part.
+    #[inline]
+    pub fn p_non_delta(&self) -> f32 {
+        self.p_diffuse + self.p_glossy
+    }
+
+    pub fn has_non_delta(&self) -> bool {
+        self.p_non_delta() > 0.0
+    }
+
+    /// Mostly a mirror or glass: the guide follows it to the next vertex (DESIGN.md §2).
+    pub fn is_delta_dominant(&self) -> bool {
+        self.p_delta() >= 0.5
+    }
+
+    /// Whether `wi` leaves on the reflecting side (by both normals: light from under the
+    /// geometric surface is never reflected, whatever the shading normal says).
+    #[inline]
+    fn reflects(&self, wi: Vec3) -> Option<f32> {
+        let cos = self.normal.dot(wi);
+        (cos > 0.0 && self.geometric.dot(wi) > 0.0).then_some(cos)
+    }
+
+    #[inline]
+    fn glossy_lobe(&self, wi: Vec3) -> f32 {
+        let c = self.mirror_dir.dot(wi);
+        if c <= 0.0 { 0.0 } else { c.powf(self.exponent) }
+    }
+
+    /// The non-delta BSDF times the cosine, split in (diffuse part demodulated = cos/π,
+    /// glossy part), for a direction `wi` toward the light.
+    #[inline]
+    pub fn eval_cos(&self, wi: Vec3) -> Rgb {
+        let Some(cos) = self.reflects(wi) else { return Rgb::ZERO };
+        let mut f = self.diffuse * FRAC_1_PI;
+        if self.glossy > 0.0 {
+            f += Rgb::splat(self.glossy * (self.exponent + 2.0) / TAU * self.glossy_lobe(wi));
+        }
+        f * cos
+    }
+
+    /// Glossy part of `eval_cos`.
+    #[inline]
+    pub fn eval_glossy_cos(&self, wi: Vec3) -> f32 {
+        let Some(cos) = self.reflects(wi) else { return 0.0 };
+        self.glossy * (self.exponent + 2.0) / TAU * self.glossy_lobe(wi) * cos
+    }
+
+    #[inline]
+    fn pdf_diffuse(&self, wi: Vec3) -> f32 {
+        self.reflects(wi).map_or(0.0, |c| c * FRAC_1_PI)
+    }
+
+    #[inline]
+    fn pdf_glossy(&self, wi: Vec3) -> f32 {
+        (self.exponent + 1.0) / TAU * self.glossy_lobe(wi)
+    }
+
+    /// Solid-angle pdf of sampling `wi` from the whole BSDF (its non-delta part).
+    pub fn pdf(&self, wi: Vec3) -> f32 {
+        let mut p = 0.0;
+        if self.p_diffuse > 0.0 {
+            p += self.p_diffuse * self.pdf_diffuse(wi);
+        }
+        if self.p_glossy > 0.0 {
+            p += self.p_glossy * self.pdf_glossy(wi);
+        }
+        p
+    }
+
+    /// Solid-angle pdf of [`Bsdf::sample_non_delta`].
+    pub fn pdf_non_delta(&self, wi: Vec3) -> f32 {
+        let nd = self.p_non_delta();
+        if nd <= 0.0 { 0.0 } else { self.pdf(wi) / nd }
+    }
+
+    fn sample_diffuse(&self, u: Vec2) -> Vec3 {
+        Frame::from_z(self.normal).to_world(sample_cosine_hemisphere(u))
+    }
+
+    fn sample_glossy(&self, u: Vec2) -> Vec3 {
+        let cos_a = u.x.powf(1.0 / (self.exponent + 1.0));
+        let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
+        let phi = TAU * u.y;
+        Frame::from_z(self.mirror_dir).to_world(Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a))
+    }
+
+    /// Sample every lobe (delta lobes included) by its choice probability.
+    pub fn sample(&self, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        if u_lobe < self.p_non_delta() {
+            return self.non_delta_direction(u_lobe / self.p_non_delta(), u, true);
+        }
+        let u_delta = u_lobe - self.p_non_delta();
+        if u_delta < self.p_mirror || self.refracted.is_none() {
+            if self.p_mirror <= 0.0 {
+                return None;
+            }
+            return Some(BsdfSample {
+                wi: self.mirror_dir,
+                weight: self.mirror / self.p_mirror,
+                pdf: 0.0,
+                delta: true,
+            });
+        }
+        let p_transmit = self.p_delta() - self.p_mirror;
+        let wi = self.refracted?;
+        (p_transmit > 0.0).then(|| BsdfSample { wi, weight: self.transmit / p_transmit, pdf: 0.0, delta: true })
+    }
+
+    /// Sample the non-delta mixture only (the guide vertex's indirect ray): `weight` is the
+    /// whole non-delta `f · cos / pdf`.
+    pub fn sample_non_delta(&self, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        if !self.has_non_delta() {
+            return None;
+        }
+        self.non_delta_direction(u_lobe, u, false)
+    }
+
+    /// Pick diffuse or glossy with `u_lobe` ∈ [0,1) over the non-delta part. With
+    /// `all_lobes` the delta lobes competed for the choice, so the pdf is the mixture's
+    /// `p_d pdf_d + p_g pdf_g`; otherwise it is that over `p_d + p_g`.
+    fn non_delta_direction(&self, u_lobe: f32, u: Vec2, all_lobes: bool) -> Option<BsdfSample> {
+        let nd = self.p_non_delta();
+        let wi = if u_lobe < self.p_diffuse / nd { self.sample_diffuse(u) } else { self.sample_glossy(u) };
+        self.reflects(wi)?;
+        let pdf = if all_lobes { self.pdf(wi) } else { self.pdf(wi) / nd };
+        if !(pdf > 0.0 && pdf.is_finite()) {
+            return None;
+        }
+        Some(BsdfSample { wi, weight: self.eval_cos(wi) / pdf, pdf, delta: false })
+    }
+
+    /// Sample the glossy lobe alone: direction and `f_glossy · cos / pdf_glossy`.
+    pub fn sample_glossy_only(&self, u: Vec2) -> Option<(Vec3, f32)> {
+        if self.glossy <= 0.0 {
+            return None;
+        }
+        let wi = self.sample_glossy(u);
+        let cos = self.reflects(wi)?;
+        Some((wi, self.glossy * (self.exponent + 2.0) / (self.exponent + 1.0) * cos))
+    }
+
+    /// The delta lobes as (direction, weight) pairs, for deterministic tracing.
+    pub fn delta_lobes(&self) -> [Option<(Vec3, Rgb)>; 2] {
+        let m = (self.mirror.max_element() > 0.0).then_some((self.mirror_dir, self.mirror));
+        let t = self.refracted.map(|d| (d, self.transmit));
+        [m, t]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glint_core::chi2::chi2_sphere;
+    use glint_core::random::SampleStream;
+
+    fn bsdf(m: &Material) -> Bsdf {
+        let wo = Vec3::new(0.3, 0.2, 0.9).normalize();
+        Bsdf::new(m, m.colour, wo, Vec3::Z, Vec3::Z, true)
+    }
+
+    fn samples(b: &Bsdf, n: usize, non_delta: bool) -> Vec<Vec3> {
+        let mut out = Vec::new();
+        for i in 0..n {
+            let mut s = SampleStream::new(i as u64, 0, 7);
+            let (ul, u) = (s.next_1d(), s.next_2d());
+            let r = if non_delta { b.sample_non_delta(ul, u) } else { b.sample(ul, u) };
+            if let Some(r) = r.filter(|r| !r.delta) {
+                out.push(r.wi);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn mixture_sampling_matches_its_pdf() {
+        let m = Material { diffuse: 0.5, specular: 0.4, shininess: 20.0, reflectivity: 0.2, ..Material::default() };
+        let b = bsdf(&m);
+        let n = 200_000;
+        let s = samples(&b, n, false);
+        let out = chi2_sphere(&s, n, |d| b.pdf(d) as f64, 16, 32);
+        assert!(out.p_value > 0.01 / 2.0, "{out:?}");
+        let s = samples(&b, n, true);
+        let out = chi2_sphere(&s, n, |d| b.pdf_non_delta(d) as f64, 16, 32);
+        assert!(out.p_value > 0.01 / 2.0, "{out:?}");
+    }
+
+    #[test]
+    fn weights_are_f_cos_over_pdf_and_energy_is_conserved() {
+        let m = Material { colour: Rgb::ONE, diffuse: 0.9, specular: 0.7, shininess: 8.0, ..Material::default() };
+        let b = bsdf(&m);
+        // Albedo by Monte Carlo: E[weight] ≤ 1.
+        let n = 100_000;
+        let mut sum = Rgb::ZERO;
+        for i in 0..n {
+            let mut s = SampleStream::new(i, 1, 3);
+            if let Some(r) = b.sample(s.next_1d(), s.next_2d()) {
+                assert!((r.weight - b.eval_cos(r.wi) / r.pdf).abs().max_element() < 1e-4);
+                sum += r.weight;
+            }
+        }
+        let albedo = sum / n as f32;
+        assert!(albedo.max_element() <= 1.0 + 0.01, "{albedo}");
+        assert!(albedo.min_element() > 0.5, "{albedo}");
+    }
+
+    #[test]
+    fn glass_splits_by_fresnel_and_mirror_is_delta() {
+        let glass = Material { transparency: 1.0, diffuse: 0.0, specular: 0.0, ..Material::default() };
+        let b = bsdf(&glass);
+        assert!(b.is_delta_dominant() && !b.has_non_delta());
+        let [m, t] = b.delta_lobes();
+        let (m, t) = (m.expect("reflects"), t.expect("refracts"));
+        assert!((m.1.x + t.1.x - 1.0).abs() < 1e-6 && m.1.x < 0.1);
+        let mirror = Material { reflectivity: 1.0, ..Material::default() };
+        let b = bsdf(&mirror);
+        let s = b.sample(0.5, Vec2::splat(0.5)).expect("mirror");
+        assert!(s.delta && (s.weight - Rgb::ONE).abs().max_element() < 1e-6);
+    }
+}

@@ -1,0 +1,339 @@
+//! One camera sample of the path tracer, split the way DESIGN.md §2 asks.
+//!
+//! The camera ray follows mirrors and glass (delta-dominant vertices: a delta lobe is chosen
+//! with its probability) to the first non-delta vertex, the *guide vertex*. There:
+//! - **direct** light: one light sample (next-event estimation from the lights alone, the same
+//!   way for every sample, no MIS);
+//! - **diffuse indirect**: one ray from the non-delta BSDF; the incident light it brings,
+//!   demodulated (`L · (cos/π) / pdf`, so that `ρd ×` it is the diffuse part), goes to the
+//!   indirect buffer that the filter smooths; in lookup mode it is not traced here at all;
+//! - **glossy indirect** (the Phong lobe's share of that same ray, or a glossy-only ray in
+//!   lookup mode) and the **delta lobes** of a mostly-diffuse surface (traced
+//!   deterministically) are added unfiltered.
+//!
+//! Deeper vertices are plain path tracing: one light sample with multiple importance sampling
+//! (power heuristic) against BSDF sampling, Russian roulette after `rr_start` bounces. The
+//! first vertex after the guide vertex adds no emission that next-event estimation could have
+//! sampled (no double counting); emitters NEE cannot aim at (spheres, planes) count in full.
+
+use super::bsdf::Bsdf;
+use super::lights::{LightSet, power_heuristic};
+use crate::whitted::RayCounts;
+use crate::world::{SurfaceHit, World};
+use glint_core::random::SampleStream;
+use glint_core::{Ray, Rgb, Vec3};
+use std::f32::consts::FRAC_1_PI;
+
+#[derive(Clone, Copy, Debug)]
+pub struct PathParams {
+    /// Indirect bounces after the guide vertex (0 = direct light only).
+    pub max_bounces: u32,
+    /// Longest chain of mirror/glass vertices the camera ray follows.
+    pub max_chain: u32,
+    /// Russian roulette from this bounce on.
+    pub rr_start: u32,
+    /// Largest component of the indirect radiance a sample may bring to its guide vertex
+    /// (firefly clamp; biased, darkens caustics); infinite = off.
+    pub clamp_indirect: f32,
+    /// Route the diffuse part of the sampled (area and sky) direct light through the filter
+    /// too (an extension of the paper: its direct light came from point lights).
+    pub filter_area_direct: bool,
+}
+
+/// Scale `c` down so that its largest component is at most `limit`.
+#[inline]
+fn clamp_radiance(c: Rgb, limit: f32) -> Rgb {
+    let m = c.max_element();
+    if m > limit { c * (limit / m) } else { c }
+}
+
+/// Whether the guide vertex traces its diffuse indirect light or takes it from the filtered map.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum IndirectMode {
+    Trace,
+    Lookup,
+}
+
+/// Geometry of a guide vertex (the filter's guide and the lookup's similarity).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GuideGeometry {
+    /// Shading normal on the viewer's side.
+    pub normal: Vec3,
+    /// Camera depth of the first hit plus the lengths of the delta chain after it.
+    pub depth: f32,
+}
+
+/// What one camera sample found.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CameraSample {
+    /// Everything except the diffuse indirect light at the guide vertex: emission and sky
+    /// seen along the camera chain, direct light, glossy indirect, delta lobes.
+    pub rest: Rgb,
+    pub direct: Rgb,
+    /// Chain throughput × ρd at the guide vertex (zero without one).
+    pub albedo: Rgb,
+    /// Demodulated diffuse indirect light (traced mode only).
+    pub indirect: Rgb,
+    pub guide: Option<GuideGeometry>,
+    /// The primary ray hit a surface.
+    pub covered: bool,
+}
+
+impl CameraSample {
+    pub fn is_finite(&self) -> bool {
+        self.rest.is_finite() && self.direct.is_finite() && self.albedo.is_finite() && self.indirect.is_finite()
+    }
+}
+
+/// How the previous vertex sampled the ray that arrives at the current one (for MIS).
+#[derive(Clone, Copy)]
+struct Arrival {
+    pdf: f32,
+    delta: bool,
+    /// Right after the guide vertex: emitters that NEE samples add nothing.
+    after_guide: bool,
+    from: Vec3,
+}
+
+pub struct Integrator<'a> {
+    pub world: &'a World,
+    pub lights: &'a LightSet,
+    pub params: PathParams,
+    pub counts: RayCounts,
+}
+
+/// Orient a hit toward the ray it was found by; returns (entering, ng, ns, wo).
+#[inline]
+fn orient(hit: &SurfaceHit, dir: Vec3) -> (bool, Vec3, Vec3, Vec3) {
+    let wo = -dir;
+    let entering = hit.geometric_normal.dot(wo) >= 0.0;
+    if entering {
+        (true, hit.geometric_normal, hit.shading_normal, wo)
+    } else {
+        (false, -hit.geometric_normal, -hit.shading_normal, wo)
+    }
+}
+
+impl<'a> Integrator<'a> {
+    pub fn new(world: &'a World, lights: &'a LightSet, params: PathParams) -> Self {
+        Self { world, lights, params, counts: RayCounts::default() }
+    }
+
+    fn bsdf_at(&self, hit: &SurfaceHit, dir: Vec3) -> (Bsdf, Rgb) {
+        let m = self.world.material(hit.material);
+        let albedo = self.world.albedo(hit);
+        let (entering, ng, ns, wo) = orient(hit, dir);
+        (Bsdf::new(m, albedo, wo, ns, ng, entering), m.emission)
+    }
+
+    /// Trace one camera sample. `cone` is the primary ray's footprint for sky filtering;
+    /// `depth_of` gives the camera depth of a world point.
+    pub fn camera_sample(
+        &mut self,
+        primary: Ray,
+        cone: f32,
+        depth_of: impl Fn(Vec3) -> f32,
+        stream: &mut SampleStream,
+        mode: IndirectMode,
+    ) -> CameraSample {
+        let mut out = CameraSample::default();
+        let mut ray = primary;
+        let mut throughput = Rgb::ONE;
+        let mut depth = 0.0;
+        for chain in 0..=self.params.max_chain {
+            if chain == 0 {
+                self.counts.primary += 1;
+            } else {
+                self.counts.secondary += 1;
+            }
+            let Some(hit) = self.world.intersect(&ray) else {
+                let sky = if chain == 0 {
+                    self.world.sky().radiance_filtered(ray.dir, cone)
+                } else {
+                    self.world.sky().radiance(ray.dir)
+                };
+                out.rest += throughput * sky;
+                return out;
+            };
+            out.covered = true;
+            depth = if chain == 0 { depth_of(hit.position) } else { depth + hit.t };
+            let (bsdf, emission) = self.bsdf_at(&hit, ray.dir);
+            out.rest += throughput * emission;
+            let u_lobe = stream.next_1d();
+            let u = stream.next_2d();
+            if bsdf.is_delta_dominant() {
+                if u_lobe >= bsdf.p_non_delta() {
+                    let Some(s) = bsdf.sample(u_lobe, u) else { return out };
+                    throughput *= s.weight;
+                    ray = hit.spawn_ray(s.wi);
+                    continue;
+                }
+                // The non-delta part was chosen: the guide vertex, its delta lobes accounted.
+                throughput /= bsdf.p_non_delta();
+                self.guide_vertex(&hit, &bsdf, throughput, false, stream, mode, &mut out);
+            } else {
+                self.guide_vertex(&hit, &bsdf, throughput, true, stream, mode, &mut out);
+            }
+            out.guide = Some(GuideGeometry { normal: bsdf.normal, depth });
+            return out;
+        }
+        out
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn guide_vertex(
+        &mut self,
+        hit: &SurfaceHit,
+        bsdf: &Bsdf,
+        throughput: Rgb,
+        with_delta: bool,
+        stream: &mut SampleStream,
+        mode: IndirectMode,
+        out: &mut CameraSample,
+    ) {
+        out.albedo = throughput * bsdf.diffuse;
+        if bsdf.has_non_delta() {
+            // Direct light: the lights alone.
+            let (direct, sampled_diffuse) = self.direct_light_split(hit, bsdf, stream, false);
+            out.direct = throughput * direct;
+            // Optionally the diffuse light of area lights and the sky goes through the filter
+            // with the indirect light (traced: into the buffer; lookup: read from the map).
+            let filtered_direct = if self.params.filter_area_direct { sampled_diffuse } else { Rgb::ZERO };
+            out.direct -= out.albedo * filtered_direct;
+            out.rest += out.direct;
+            if mode == IndirectMode::Trace {
+                out.indirect = filtered_direct;
+            }
+            if self.params.max_bounces > 0 {
+                let u_lobe = stream.next_1d();
+                let u = stream.next_2d();
+                match mode {
+                    IndirectMode::Trace => {
+                        if let Some(s) = bsdf.sample_non_delta(u_lobe, u) {
+                            let arrival = Arrival { pdf: s.pdf, delta: false, after_guide: true, from: hit.position };
+                            let li = self.trace_path(hit.spawn_ray(s.wi), 1, arrival, stream);
+                            let li = clamp_radiance(li, self.params.clamp_indirect);
+                            let cos = bsdf.normal.dot(s.wi).max(0.0);
+                            out.indirect += li * (cos * FRAC_1_PI / s.pdf);
+                            out.rest += throughput * li * (bsdf.eval_glossy_cos(s.wi) / s.pdf);
+                        }
+                    }
+                    IndirectMode::Lookup => {
+                        if let Some((wi, w)) = bsdf.sample_glossy_only(u) {
+                            let arrival =
+                                Arrival { pdf: bsdf.pdf(wi), delta: false, after_guide: true, from: hit.position };
+                            let li = self.trace_path(hit.spawn_ray(wi), 1, arrival, stream);
+                            out.rest += throughput * clamp_radiance(li, self.params.clamp_indirect) * w;
+                        }
+                    }
+                }
+            }
+        }
+        if with_delta {
+            for (dir, weight) in bsdf.delta_lobes().into_iter().flatten() {
+                let arrival = Arrival { pdf: 0.0, delta: true, after_guide: false, from: hit.position };
+                let li = self.trace_path(hit.spawn_ray(dir), 0, arrival, stream);
+                out.rest += throughput * weight * li;
+            }
+        }
+    }
+
+    /// Next-event estimation at `hit`: every delta light of [`LightSet::each_delta`] plus one
+    /// sample among the other lights; `mis` weights that sample against BSDF sampling.
+    fn direct_light(&mut self, hit: &SurfaceHit, bsdf: &Bsdf, stream: &mut SampleStream, mis: bool) -> Rgb {
+        self.direct_light_split(hit, bsdf, stream, mis).0
+    }
+
+    /// As [`Integrator::direct_light`], also returning the randomly chosen light's diffuse
+    /// part demodulated (`L · (cos/π) / pdf`; `ρd ×` it is in the total).
+    fn direct_light_split(
+        &mut self,
+        hit: &SurfaceHit,
+        bsdf: &Bsdf,
+        stream: &mut SampleStream,
+        mis: bool,
+    ) -> (Rgb, Rgb) {
+        let mut sum = Rgb::ZERO;
+        let mut sampled_diffuse = Rgb::ZERO;
+        for light in self.lights.each_delta() {
+            let Some(ls) = LightSet::delta_sample(light, hit) else { continue };
+            let f = bsdf.eval_cos(ls.wi);
+            if f.max_element() > 0.0 {
+                self.counts.shadow += 1;
+                if !self.world.occluded(&ls.shadow) {
+                    sum += f * ls.weight;
+                }
+            }
+        }
+        let u_choice = stream.next_1d();
+        let u = stream.next_2d();
+        if let Some(ls) = self.lights.sample(self.world, hit, u_choice, u) {
+            let f = bsdf.eval_cos(ls.wi);
+            if f.max_element() > 0.0 {
+                self.counts.shadow += 1;
+                if !self.world.occluded(&ls.shadow) {
+                    let w = if ls.pdf == 0.0 || !mis { 1.0 } else { power_heuristic(ls.pdf, bsdf.pdf(ls.wi)) };
+                    sum += f * ls.weight * w;
+                    if ls.pdf > 0.0 {
+                        sampled_diffuse = ls.weight * (w * bsdf.normal.dot(ls.wi).max(0.0) * FRAC_1_PI);
+                    }
+                }
+            }
+        }
+        (sum, sampled_diffuse)
+    }
+
+    /// Radiance arriving along `ray`, whose first hit is vertex number `bounce` of the path
+    /// after the guide vertex (0 for rays that continue a camera chain).
+    fn trace_path(&mut self, mut ray: Ray, mut bounce: u32, mut arrival: Arrival, stream: &mut SampleStream) -> Rgb {
+        let mut radiance = Rgb::ZERO;
+        let mut beta = Rgb::ONE;
+        loop {
+            self.counts.secondary += 1;
+            let Some(hit) = self.world.intersect(&ray) else {
+                let weight = match (arrival.delta, self.lights.pdf_sky(self.world, ray.dir)) {
+                    (true, _) | (false, None) => 1.0,
+                    (false, Some(_)) if arrival.after_guide => 0.0,
+                    (false, Some(p_light)) => power_heuristic(arrival.pdf, p_light),
+                };
+                if weight > 0.0 {
+                    radiance += beta * self.world.sky().radiance(ray.dir) * weight;
+                }
+                break;
+            };
+            let (bsdf, emission) = self.bsdf_at(&hit, ray.dir);
+            if emission.max_element() > 0.0 {
+                let weight = match (arrival.delta, self.lights.pdf_surface(arrival.from, ray.dir, &hit)) {
+                    (true, _) | (false, None) => 1.0,
+                    (false, Some(_)) if arrival.after_guide => 0.0,
+                    (false, Some(p_light)) => power_heuristic(arrival.pdf, p_light),
+                };
+                radiance += beta * emission * weight;
+            }
+            if bsdf.has_non_delta() {
+                // MIS against BSDF sampling, except at the last vertex, whose BSDF ray is not
+                // traced (then light sampling alone counts).
+                let mis = bounce < self.params.max_bounces;
+                radiance += beta * self.direct_light(&hit, &bsdf, stream, mis);
+            }
+            if bounce >= self.params.max_bounces {
+                break;
+            }
+            let u_lobe = stream.next_1d();
+            let u = stream.next_2d();
+            let Some(s) = bsdf.sample(u_lobe, u) else { break };
+            beta *= s.weight;
+            bounce += 1;
+            if bounce > self.params.rr_start {
+                let q = beta.max_element().min(0.95);
+                if stream.next_1d() >= q || q.is_nan() {
+                    break;
+                }
+                beta /= q;
+            }
+            arrival = Arrival { pdf: s.pdf, delta: s.delta, after_guide: false, from: hit.position };
+            ray = hit.spawn_ray(s.wi);
+        }
+        radiance
+    }
+}

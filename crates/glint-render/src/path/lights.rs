@@ -1,0 +1,232 @@
+//! Everything next-event estimation can aim at: the scene's point, spot and directional lights,
+//! emissive triangles (area lights) and the sky, with one discrete choice among them.
+//!
+//! **Units.** Point, spot and directional lights keep the Whitted mode's meaning: a light of
+//! intensity `I` gives a white Lambertian surface facing it the brightness `I` (Phong's
+//! `K_d I cos`), i.e. it delivers irradiance `π I`. So the same scene looks alike in both modes.
+//! Emissive surfaces emit radiance `emission` from both sides; the sky is radiance.
+//!
+//! **Choice.** Up to [`EACH_DELTA_LIMIT`] point, spot and directional lights are each given a
+//! shadow ray at every shading point (they cost one ray and have no variance: choosing among
+//! them, or between the sun and the sky, would speckle every sunlit pixel that lost the draw).
+//! One sample then goes to the rest: each light gets a probability in proportion to a rough
+//! estimate of the irradiance it delivers at the scene's scale `R` (its bounding radius):
+//! `π I lum` for delta lights beyond the limit (over `R²` with inverse-square falloff),
+//! `lum(L) · area / R²` for a triangle, `∫ lum(L) dω / 4` for the sky (`π L` for a uniform sky).
+
+use crate::world::{EmissiveTriangle, SurfaceHit, World};
+use glint_core::colour::luminance;
+use glint_core::{Ray, Rgb, Vec2, Vec3};
+use glint_scene::light::Attenuation;
+use glint_scene::{Light, SkySampler};
+use std::collections::HashMap;
+use std::f32::consts::PI;
+
+/// Scenes with at most this many point, spot and directional lights sample each of them at
+/// every shading point; more go into the random choice.
+pub const EACH_DELTA_LIMIT: usize = 8;
+
+#[derive(Clone, Copy, Debug)]
+enum Entry {
+    Delta(usize),
+    Triangle(usize),
+    Sky,
+}
+
+/// One light sample seen from a shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    pub wi: Vec3,
+    /// The shadow ray (origin offset from the surface, tmax short of the light).
+    pub shadow: Ray,
+    /// Incident radiance over the pdf, i.e. what multiplies `f · cos` (choice included).
+    pub weight: Rgb,
+    /// Solid-angle pdf including the choice probability; 0 for delta lights.
+    pub pdf: f32,
+}
+
+pub struct LightSet {
+    entries: Vec<Entry>,
+    /// Cumulative choice probabilities (last = 1).
+    cdf: Vec<f32>,
+    triangles: Vec<EmissiveTriangle>,
+    /// Area of each triangle.
+    areas: Vec<f32>,
+    /// (object, prim) → entry index of emissive triangles.
+    triangle_entry: HashMap<(u32, u32), u32>,
+    sky: Option<SkySampler>,
+    sky_entry: Option<u32>,
+    delta_lights: Vec<Light>,
+    /// Every delta light is sampled at every shading point (not in `entries`).
+    each_delta: bool,
+}
+
+impl LightSet {
+    pub fn new(world: &World) -> LightSet {
+        let bounds = world.scene.bounds();
+        let radius = if bounds.is_empty() { 1.0 } else { (bounds.diagonal_length() * 0.5).max(1e-6) };
+        let r2 = radius * radius;
+        let mut entries = Vec::new();
+        let mut weights = Vec::new();
+        let delta_lights = world.scene.lights.clone();
+        let each_delta = delta_lights.len() <= EACH_DELTA_LIMIT;
+        for (i, l) in delta_lights.iter().enumerate().filter(|_| !each_delta) {
+            let (colour, intensity, atten) = match *l {
+                Light::Point { colour, intensity, attenuation, .. } => (colour, intensity, attenuation),
+                Light::Spot { colour, intensity, attenuation, .. } => (colour, intensity, attenuation),
+                Light::Directional { colour, intensity, .. } => (colour, intensity, Attenuation::None),
+            };
+            let fall = if atten == Attenuation::InverseSquare { 1.0 / r2 } else { 1.0 };
+            let w = PI * intensity * luminance(colour) * fall;
+            if w > 0.0 && w.is_finite() {
+                entries.push(Entry::Delta(i));
+                weights.push(w);
+            }
+        }
+        let triangles = world.emissive_triangles();
+        let mut areas = Vec::with_capacity(triangles.len());
+        let mut triangle_entry = HashMap::new();
+        for (i, t) in triangles.iter().enumerate() {
+            let [a, b, c] = t.vertices;
+            let area = 0.5 * (b - a).cross(c - a).length();
+            areas.push(area);
+            let w = luminance(t.emission) * area / r2;
+            if w > 0.0 && w.is_finite() {
+                triangle_entry.insert((t.object, t.prim), entries.len() as u32);
+                entries.push(Entry::Triangle(i));
+                weights.push(w);
+            }
+        }
+        let sampler = SkySampler::new(world.sky());
+        let sky_weight = sampler.integral() / 4.0;
+        let (sky, sky_entry) = if sky_weight > 0.0 && sky_weight.is_finite() {
+            entries.push(Entry::Sky);
+            weights.push(sky_weight);
+            (Some(sampler), Some(entries.len() as u32 - 1))
+        } else {
+            (None, None)
+        };
+        let total: f32 = weights.iter().sum();
+        let mut acc = 0.0;
+        let cdf = weights
+            .iter()
+            .map(|w| {
+                acc += w / total;
+                acc
+            })
+            .collect::<Vec<_>>();
+        let mut cdf = cdf;
+        if let Some(last) = cdf.last_mut() {
+            *last = 1.0;
+        }
+        LightSet { entries, cdf, triangles, areas, triangle_entry, sky, sky_entry, delta_lights, each_delta }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty() && self.each_delta().is_empty()
+    }
+
+    /// The delta lights sampled at every shading point (empty when they are in the choice).
+    pub fn each_delta(&self) -> &[Light] {
+        if self.each_delta { &self.delta_lights } else { &[] }
+    }
+
+    /// The sample of a delta light seen from `hit` (weight = incident radiance, pdf 0).
+    pub fn delta_sample(light: &Light, hit: &SurfaceHit) -> Option<LightSample> {
+        let ls = light.sample_at(hit.position)?;
+        let shadow = if ls.distance.is_finite() {
+            hit.spawn_ray_to(hit.position + ls.wi * ls.distance)
+        } else {
+            hit.spawn_ray(ls.wi)
+        };
+        Some(LightSample { wi: ls.wi, shadow, weight: ls.radiance * PI, pdf: 0.0 })
+    }
+
+    fn choice_probability(&self, entry: usize) -> f32 {
+        let lo = if entry == 0 { 0.0 } else { self.cdf[entry - 1] };
+        self.cdf[entry] - lo
+    }
+
+    /// One light sample for the shading point `hit`, from `u_choice` and `u`, among the lights
+    /// not in [`LightSet::each_delta`].
+    pub fn sample(&self, world: &World, hit: &SurfaceHit, u_choice: f32, u: Vec2) -> Option<LightSample> {
+        if self.entries.is_empty() {
+            return None;
+        }
+        let entry = self.cdf.partition_point(|&c| c <= u_choice).min(self.entries.len() - 1);
+        let p_choice = self.choice_probability(entry);
+        if p_choice <= 0.0 {
+            return None;
+        }
+        match self.entries[entry] {
+            Entry::Delta(i) => {
+                let mut s = Self::delta_sample(&self.delta_lights[i], hit)?;
+                s.weight /= p_choice;
+                Some(s)
+            }
+            Entry::Triangle(i) => {
+                let t = &self.triangles[i];
+                let [a, b, c] = t.vertices;
+                let su = u.x.sqrt();
+                let (b0, b1) = (1.0 - su, u.y * su);
+                let target = a * b0 + b * b1 + c * (1.0 - b0 - b1);
+                let to = target - hit.position;
+                let dist2 = to.length_squared();
+                if dist2.is_nan() || dist2 <= 0.0 {
+                    return None;
+                }
+                let dist = dist2.sqrt();
+                let wi = to / dist;
+                let n = (b - a).cross(c - a);
+                let cos_l = n.dot(wi).abs() / n.length();
+                if cos_l.is_nan() || cos_l <= 1e-7 {
+                    return None;
+                }
+                let pdf = p_choice * dist2 / (self.areas[i] * cos_l);
+                let mut shadow = hit.spawn_ray_to(target);
+                // Stop short of the light's own surface.
+                shadow.tmax *= 1.0 - 1e-4;
+                Some(LightSample { wi, shadow, weight: t.emission / pdf, pdf })
+            }
+            Entry::Sky => {
+                let sky = self.sky.as_ref()?;
+                let s = sky.sample(world.sky(), u)?;
+                if s.pdf.is_nan() || s.pdf <= 0.0 {
+                    return None;
+                }
+                let pdf = s.pdf * p_choice;
+                Some(LightSample { wi: s.dir, shadow: hit.spawn_ray(s.dir), weight: s.radiance / pdf, pdf })
+            }
+        }
+    }
+
+    /// Solid-angle pdf (choice included) with which [`LightSet::sample`] would have picked the
+    /// emitting surface `hit` seen from `from` along unit `dir`; `None` when that surface is not
+    /// sampled by next-event estimation (emissive spheres and planes: BSDF sampling alone finds
+    /// them).
+    pub fn pdf_surface(&self, from: Vec3, dir: Vec3, hit: &SurfaceHit) -> Option<f32> {
+        let &entry = self.triangle_entry.get(&(hit.object, hit.prim))?;
+        let Entry::Triangle(i) = self.entries[entry as usize] else { return None };
+        let cos_l = hit.geometric_normal.dot(dir).abs();
+        if cos_l <= 0.0 {
+            return Some(0.0);
+        }
+        let dist2 = (hit.position - from).length_squared();
+        Some(self.choice_probability(entry as usize) * dist2 / (self.areas[i] * cos_l))
+    }
+
+    /// Solid-angle pdf (choice included) of sampling the sky toward `dir`; `None` when the sky
+    /// is not sampled.
+    pub fn pdf_sky(&self, world: &World, dir: Vec3) -> Option<f32> {
+        let sky = self.sky.as_ref()?;
+        let entry = self.sky_entry? as usize;
+        Some(sky.pdf(world.sky(), dir) * self.choice_probability(entry))
+    }
+}
+
+/// The power heuristic (β = 2) weight of a strategy with pdf `a` against one with pdf `b`.
+#[inline]
+pub fn power_heuristic(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 <= 0.0 { 0.0 } else { a2 / (a2 + b2) }
+}

@@ -1,0 +1,396 @@
+//! Path tracing with guided-image-filtered indirect light (DESIGN.md §2; Bauszat, Eisemann and
+//! Magnor 2011).
+//!
+//! A frame is one or more *passes* of `spp` samples per pixel. In a pass with a filter:
+//! 1. **guide rays**: the first sample of every pixel goes through its centre and traces its
+//!    diffuse indirect light into a buffer, with the normal, depth and albedo of its guide
+//!    vertex ([`integrator`]);
+//! 2. **filter**: the buffer (demodulated) is filtered by glint-filter, guided by normal and
+//!    depth;
+//! 3. **further samples** trace direct light and everything but the diffuse indirect light
+//!    themselves, and read the filtered indirect light at the most similar of the four guides
+//!    around them ([`lookup`]), times their own albedo.
+//!
+//! Without a filter every sample traces its own indirect path (plain path tracing, the
+//! reference). Pixels are box-filtered averages of their samples. With a time budget, passes
+//! repeat (new guide rays, new samples) until it is spent and the passes are averaged.
+//! Every random number is `hash(pixel, sample, dimension, seed)`: the image does not depend on
+//! the thread count.
+
+pub mod bsdf;
+pub mod integrator;
+pub mod lights;
+pub mod lookup;
+
+use crate::film::{Film, FilmPixel};
+use crate::settings::RenderSettings;
+use crate::whitted::RayCounts;
+use crate::{RenderError, World};
+use glint_core::random::SampleStream;
+use glint_core::{Rgb, Vec2, Vec3};
+pub use glint_filter::Filter;
+use integrator::{CameraSample, IndirectMode, Integrator, PathParams};
+use lights::LightSet;
+use lookup::GuideMap;
+use rayon::prelude::*;
+use std::time::{Duration, Instant};
+
+/// Rows per unit of parallel work.
+const BAND_ROWS: usize = 4;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathSettings {
+    /// Samples per pixel in each pass (the first is the guide ray).
+    pub spp: u32,
+    /// Indirect bounces (0 = direct light only).
+    pub max_bounces: u32,
+    /// Russian roulette from this bounce on.
+    pub rr_start: u32,
+    pub filter: Filter,
+    /// Render passes until this much time has been spent (at least one pass).
+    pub time_budget: Option<Duration>,
+    /// Firefly clamp: the largest component of the indirect radiance a sample brings to its
+    /// guide vertex (biased: caustics darken). None = off, the unbiased default.
+    pub clamp_indirect: Option<f32>,
+    /// Also filter the diffuse direct light of area lights and the sky (sampled lights), not
+    /// only the indirect light: an extension of the paper, whose direct light came from point
+    /// lights. Point, spot and directional lights stay unfiltered (sharp shadows).
+    pub filter_area_direct: bool,
+}
+
+impl Default for PathSettings {
+    fn default() -> Self {
+        Self {
+            spp: 1,
+            max_bounces: 3,
+            rr_start: 3,
+            filter: Filter::None,
+            time_budget: None,
+            clamp_indirect: None,
+            filter_area_direct: false,
+        }
+    }
+}
+
+/// Upper bounds accepted for the path settings.
+pub const MAX_SPP: u32 = 1 << 16;
+pub const MAX_BOUNCES: u32 = 64;
+
+impl PathSettings {
+    pub fn validate(&self) -> Result<(), RenderError> {
+        if self.spp == 0 || self.spp > MAX_SPP {
+            return Err(RenderError::InvalidSetting(format!("{} samples per pixel (must be 1..={MAX_SPP})", self.spp)));
+        }
+        if self.max_bounces > MAX_BOUNCES {
+            return Err(RenderError::InvalidSetting(format!(
+                "{} bounces (must be at most {MAX_BOUNCES})",
+                self.max_bounces
+            )));
+        }
+        if let Some(c) = self.clamp_indirect
+            && !(c.is_finite() && c > 0.0)
+        {
+            return Err(RenderError::InvalidSetting(format!("indirect clamp {c} (must be a finite number > 0)")));
+        }
+        if let Some(t) = self.time_budget
+            && t.is_zero()
+        {
+            return Err(RenderError::InvalidSetting("time budget must be more than 0 s".into()));
+        }
+        Ok(())
+    }
+
+    fn filtered(&self) -> bool {
+        !matches!(self.filter, Filter::None)
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PathStats {
+    pub rays: RayCounts,
+    /// Samples whose result was NaN or infinite (dropped, counted as black).
+    pub rejected_samples: u64,
+    pub passes: u32,
+    /// Samples per pixel over all passes.
+    pub samples_per_pixel: u32,
+    /// Time in tracing (guide rays and further samples) and in the filter.
+    pub trace: Duration,
+    pub filter: Duration,
+    pub elapsed: Duration,
+}
+
+impl PathStats {
+    pub fn mrays_per_second(&self) -> f64 {
+        self.rays.total() as f64 / self.trace.as_secs_f64().max(1e-9) / 1e6
+    }
+}
+
+/// The guide sample of one pixel.
+#[derive(Clone, Copy, Debug, Default)]
+struct GuidePixel {
+    sample: CameraSample,
+}
+
+/// Per-pixel sums over all samples of all passes.
+#[derive(Clone, Copy, Debug, Default)]
+struct Accum {
+    colour: Rgb,
+    direct: Rgb,
+    /// Sum over passes of the indirect value that went into the beauty at this pixel's centre.
+    indirect: Rgb,
+    covered: u32,
+    samples: u32,
+}
+
+#[derive(Clone, Copy, Default)]
+struct BandStats {
+    rays: RayCounts,
+    rejected: u64,
+}
+
+impl BandStats {
+    fn merge(mut self, o: BandStats) -> BandStats {
+        self.rays.add(&o.rays);
+        self.rejected += o.rejected;
+        self
+    }
+}
+
+/// Everything a pass needs, shared by the threads.
+struct Frame {
+    lights: LightSet,
+    camera: glint_scene::camera::CameraRays,
+    params: PathParams,
+    settings: RenderSettings,
+    centre_cone: f32,
+    forward: Vec3,
+    width: usize,
+}
+
+impl Frame {
+    /// Trace sample `sample` of pixel (x, y); sample 0 of a pass with a guide (or the very
+    /// first sample) goes through the centre.
+    fn sample(
+        &self,
+        it: &mut Integrator,
+        x: usize,
+        y: usize,
+        sample: u64,
+        centre: bool,
+        mode: IndirectMode,
+    ) -> (Vec2, CameraSample) {
+        let pixel = (y * self.width + x) as u64;
+        let mut stream = SampleStream::new(pixel, sample, self.settings.seed);
+        let offset = if centre { Vec2::splat(0.5) } else { stream.next_2d() };
+        let pos = Vec2::new(x as f32, y as f32) + offset;
+        let ray = self.camera.ray(pos);
+        let cos = ray.dir.dot(self.forward);
+        let camera = &self.camera;
+        let s = it.camera_sample(ray, self.centre_cone * cos * cos.sqrt(), |p| camera.depth(p), &mut stream, mode);
+        (pos, s)
+    }
+}
+
+/// Render the world's scene with the path tracer.
+pub fn render_path(
+    world: &World,
+    settings: &RenderSettings,
+    path: &PathSettings,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(Film, PathStats), RenderError> {
+    settings.validate()?;
+    path.validate()?;
+    let start = Instant::now();
+    let (w, h) = (settings.width as usize, settings.height as usize);
+    let camera = world.scene.camera.rays(settings.width, settings.height);
+    let spp_side = (path.spp as f32).sqrt();
+    let frame = Frame {
+        lights: LightSet::new(world),
+        camera,
+        params: PathParams {
+            max_bounces: path.max_bounces,
+            max_chain: settings.max_depth,
+            rr_start: path.rr_start,
+            clamp_indirect: path.clamp_indirect.unwrap_or(f32::INFINITY),
+            filter_area_direct: path.filter_area_direct && path.filtered(),
+        },
+        settings: *settings,
+        centre_cone: 1.0 / (camera.focal_pixels * spp_side),
+        forward: world.scene.camera.forward.normalize(),
+        width: w,
+    };
+    let bounds = world.scene.bounds();
+    let depth_scale = if bounds.is_empty() { 1.0 } else { 1.0 / bounds.diagonal_length().max(1e-6) };
+
+    let mut acc = vec![Accum::default(); w * h];
+    let mut aovs: Vec<GuidePixel> = Vec::new();
+    let mut stats = PathStats::default();
+    let band_len = w * BAND_ROWS;
+    let mut pass = 0u32;
+    loop {
+        let pass_start = Instant::now();
+        let base = pass as u64 * path.spp as u64;
+        // 1. Guide rays (and, unfiltered, every sample).
+        let trace_start = Instant::now();
+        let mut guides = vec![GuidePixel::default(); w * h];
+        let filtered = path.filtered();
+        let band_stats = guides
+            .par_chunks_mut(band_len)
+            .zip(acc.par_chunks_mut(band_len))
+            .enumerate()
+            .map(|(band, (gs, accs))| {
+                let mut it = Integrator::new(world, &frame.lights, frame.params);
+                let mut rejected = 0;
+                for (k, (g, a)) in gs.iter_mut().zip(accs.iter_mut()).enumerate() {
+                    let (x, y) = (k % w, band * BAND_ROWS + k / w);
+                    let count = if filtered { 1 } else { path.spp as u64 };
+                    for s in 0..count {
+                        let index = base + s;
+                        let centre = if filtered { s == 0 } else { index == 0 };
+                        let (_, cs) = frame.sample(&mut it, x, y, index, centre, IndirectMode::Trace);
+                        if !cs.is_finite() {
+                            rejected += 1;
+                            a.samples += !filtered as u32;
+                            continue;
+                        }
+                        if s == 0 {
+                            g.sample = cs;
+                        }
+                        if !filtered {
+                            a.colour += cs.rest + cs.albedo * cs.indirect;
+                            a.direct += cs.direct;
+                            a.indirect += cs.indirect;
+                            a.covered += cs.covered as u32;
+                            a.samples += 1;
+                        }
+                    }
+                }
+                if pass == 0 && !(filtered && path.spp > 1) {
+                    progress((gs.len() / w) as u64);
+                }
+                BandStats { rays: it.counts, rejected }
+            })
+            .reduce(BandStats::default, BandStats::merge);
+        stats.rays.add(&band_stats.rays);
+        stats.rejected_samples += band_stats.rejected;
+        stats.trace += trace_start.elapsed();
+
+        if filtered {
+            // 2. Filter the guide rays' indirect light.
+            let filter_start = Instant::now();
+            let filtered_indirect = filter_indirect(&guides, w, h, depth_scale, &path.filter)?;
+            stats.filter += filter_start.elapsed();
+            // 3. Further samples read it through the geometry-aware lookup.
+            let trace_start = Instant::now();
+            let normals: Vec<Vec3> = guides.iter().map(|g| g.sample.guide.map_or(Vec3::ZERO, |q| q.normal)).collect();
+            let depths: Vec<f32> = guides.iter().map(|g| g.sample.guide.map_or(f32::INFINITY, |q| q.depth)).collect();
+            let map = GuideMap { width: w, height: h, normal: &normals, depth: &depths };
+            let band_stats = acc
+                .par_chunks_mut(band_len)
+                .enumerate()
+                .map(|(band, accs)| {
+                    let mut it = Integrator::new(world, &frame.lights, frame.params);
+                    let mut rejected = 0;
+                    for (k, a) in accs.iter_mut().enumerate() {
+                        let (x, y) = (k % w, band * BAND_ROWS + k / w);
+                        let i = y * w + x;
+                        let g = &guides[i].sample;
+                        a.colour += g.rest + g.albedo * filtered_indirect[i];
+                        a.direct += g.direct;
+                        a.indirect += filtered_indirect[i];
+                        a.covered += g.covered as u32;
+                        a.samples += 1;
+                        for s in 1..path.spp as u64 {
+                            let (pos, cs) = frame.sample(&mut it, x, y, base + s, false, IndirectMode::Lookup);
+                            a.samples += 1;
+                            if !cs.is_finite() {
+                                rejected += 1;
+                                continue;
+                            }
+                            let indirect = match cs.guide {
+                                Some(q) => {
+                                    map.choose(pos, q.normal, q.depth).map_or(Rgb::ZERO, |j| filtered_indirect[j])
+                                }
+                                None => Rgb::ZERO,
+                            };
+                            a.colour += cs.rest + cs.albedo * indirect;
+                            a.direct += cs.direct;
+                            a.covered += cs.covered as u32;
+                        }
+                    }
+                    if pass == 0 && path.spp > 1 {
+                        progress((accs.len() / w) as u64);
+                    }
+                    BandStats { rays: it.counts, rejected }
+                })
+                .reduce(BandStats::default, BandStats::merge);
+            stats.rays.add(&band_stats.rays);
+            stats.rejected_samples += band_stats.rejected;
+            stats.trace += trace_start.elapsed();
+        }
+        if pass == 0 {
+            aovs = guides;
+        }
+        pass += 1;
+        let pass_time = pass_start.elapsed();
+        match path.time_budget {
+            Some(budget) if start.elapsed() + pass_time <= budget && pass < u32::MAX / path.spp.max(1) => {}
+            _ => break,
+        }
+    }
+    stats.passes = pass;
+    stats.samples_per_pixel = pass * path.spp;
+
+    let mut film = Film::new(settings.width, settings.height);
+    film.path_aovs = true;
+    for ((p, a), g) in film.pixels.iter_mut().zip(&acc).zip(&aovs) {
+        let n = a.samples.max(1) as f32;
+        let guide = g.sample.guide;
+        *p = FilmPixel {
+            colour: a.colour / n,
+            normal: guide.map_or(Vec3::ZERO, |q| q.normal),
+            albedo: g.sample.albedo,
+            depth: guide.map_or(f32::INFINITY, |q| q.depth),
+            coverage: a.covered as f32 / n,
+            direct: a.direct / n,
+            indirect: if path.filtered() { a.indirect / pass as f32 } else { a.indirect / n },
+            samples: a.samples as f32,
+        };
+    }
+    stats.elapsed = start.elapsed();
+    Ok((film, stats))
+}
+
+/// Filter the guide rays' demodulated indirect light, guided by their normals and depths.
+/// Depth is divided by the scene's diagonal (a constant of the scene, not of the view);
+/// pixels without a guide vertex get a zero normal and a depth one scene diagonal beyond the
+/// farthest guide.
+fn filter_indirect(
+    guides: &[GuidePixel],
+    width: usize,
+    height: usize,
+    depth_scale: f32,
+    filter: &Filter,
+) -> Result<Vec<Rgb>, RenderError> {
+    let n = guides.len();
+    let far = guides.iter().filter_map(|g| g.sample.guide.map(|q| q.depth * depth_scale)).fold(0.0f32, f32::max) + 1.0;
+    let mut planes = [vec![0.0f32; n], vec![0.0; n], vec![0.0; n]];
+    let mut normal = [vec![0.0f32; n], vec![0.0; n], vec![0.0; n]];
+    let mut depth = vec![far; n];
+    for (i, g) in guides.iter().enumerate() {
+        if let Some(q) = g.sample.guide {
+            let ind = g.sample.indirect;
+            planes[0][i] = ind.x;
+            planes[1][i] = ind.y;
+            planes[2][i] = ind.z;
+            normal[0][i] = q.normal.x;
+            normal[1][i] = q.normal.y;
+            normal[2][i] = q.normal.z;
+            depth[i] = q.depth * depth_scale;
+        }
+    }
+    let guide = glint_filter::Guide { width, height, normal: [&normal[0], &normal[1], &normal[2]], depth: &depth };
+    let out = glint_filter::apply(filter, [&planes[0], &planes[1], &planes[2]], &guide)
+        .map_err(|e| RenderError::Filter(e.to_string()))?;
+    Ok((0..n).map(|i| Rgb::new(out[0][i], out[1][i], out[2][i])).collect())
+}

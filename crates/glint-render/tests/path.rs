@@ -1,0 +1,234 @@
+//! The path mode (DESIGN.md §2): furnace tests with known answers, next-event estimation
+//! against BSDF sampling, light sampling against its pdf, thread-count independence, and the
+//! guided filter's gain on the Cornell box.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)] // test code: a failure is the report
+
+mod common;
+
+use common::settings;
+use glint_core::chi2::chi2_sphere;
+use glint_core::random::SampleStream;
+use glint_core::{Affine3A, Rgb, Vec3};
+use glint_filter::{Filter, GuidedParams};
+use glint_render::path::lights::LightSet;
+use glint_render::{Film, PathSettings, World, render_path};
+use glint_scene::{Camera, Fov, Material, Object, Scene, Shape, Sky};
+use std::sync::Arc;
+
+fn object(shape: Shape, material: usize) -> Object {
+    Object { name: "o".into(), shape, material, world_from_object: Affine3A::IDENTITY }
+}
+
+fn path(spp: u32, bounces: u32, filter: Filter) -> PathSettings {
+    PathSettings {
+        spp,
+        max_bounces: bounces,
+        rr_start: 64,
+        filter,
+        time_budget: None,
+        clamp_indirect: None,
+        filter_area_direct: false,
+    }
+}
+
+fn render(scene: Scene, w: u32, h: u32, p: &PathSettings) -> Film {
+    let world = World::new(scene);
+    render_path(&world, &settings(w, h), p, &|_| {}).expect("render").0
+}
+
+/// Mean and standard error of the luminance-free red channel over pixels that pass `keep`.
+fn mean_and_error(film: &Film, keep: impl Fn(usize) -> bool) -> (f64, f64, usize) {
+    let v: Vec<f64> =
+        film.pixels.iter().enumerate().filter(|(i, _)| keep(*i)).map(|(_, p)| p.colour.x as f64).collect();
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt(), v.len())
+}
+
+fn white_diffuse(colour: f32) -> Material {
+    Material { colour: Rgb::splat(colour), diffuse: 1.0, specular: 0.0, ambient: 0.0, ..Material::default() }
+}
+
+/// White furnace: a white Lambertian sphere under a uniform white sky reflects exactly the
+/// sky (it sees nothing but the sky), whatever the bounce count, the filter or the seed.
+#[test]
+fn white_furnace_returns_the_sky() {
+    let scene = |_: ()| Scene {
+        camera: Camera::look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y, Fov::Vertical(40.0)),
+        sky: Sky::Colour(Rgb::ONE),
+        materials: vec![white_diffuse(1.0)],
+        objects: vec![object(Shape::Sphere { centre: Vec3::ZERO, radius: 1.0 }, 0)],
+        ..Scene::default()
+    };
+    for p in
+        [path(4, 0, Filter::None), path(4, 3, Filter::None), path(2, 2, Filter::Guided(GuidedParams::for_width(48)))]
+    {
+        let film = render(scene(()), 48, 48, &p);
+        let (mean, err, n) = mean_and_error(&film, |i| film.pixels[i].coverage == 1.0);
+        assert!(n > 500, "{n} sphere pixels");
+        // 5 standard errors: fails by chance with p < 1e-6.
+        assert!((mean - 1.0).abs() < 5.0 * err + 1e-6, "{p:?}: furnace mean {mean} ± {err}");
+        assert!(err < 0.05, "too noisy: {err}");
+    }
+}
+
+/// Inside a closed sphere of albedo ρ whose every point emits L_e, a path of B bounces sees
+/// `L_e (1 + ρ + ... + ρ^(B+1))` (emission, direct light, one term per bounce). Exercises
+/// next-event estimation of emissive triangles (icosphere) with MIS at deeper vertices and the
+/// no-double-counting rule after the guide vertex, and full-weight emission for emitters NEE
+/// cannot sample (an analytic sphere).
+#[test]
+fn closed_emitting_sphere_sums_the_geometric_series() {
+    let rho = 0.5f32;
+    let emitter = Material { emission: Rgb::ONE, ..white_diffuse(rho) };
+    let camera = Camera::look_at(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), Vec3::Y, Fov::Vertical(90.0));
+    let ico = glint_accel::procedural::icosphere(3);
+    let mesh = glint_scene::Mesh {
+        name: "sphere".into(),
+        positions: ico.positions,
+        normals: None,
+        uvs: None,
+        triangles: ico.triangles,
+        triangle_materials: None,
+    };
+    let shapes = [Shape::Mesh(0), Shape::Sphere { centre: Vec3::ZERO, radius: 1.0 }];
+    for shape in shapes {
+        for bounces in [0u32, 1, 3] {
+            let scene = Scene {
+                camera,
+                sky: Sky::Colour(Rgb::ZERO),
+                materials: vec![emitter.clone()],
+                meshes: vec![Arc::new(mesh.clone())],
+                objects: vec![object(shape, 0)],
+                ..Scene::default()
+            };
+            let film = render(scene, 24, 24, &path(16, bounces, Filter::None));
+            // Emitters next-event estimation cannot sample (analytic spheres) are found by BSDF
+            // sampling alone, so they bring no direct light at the last vertex: one term fewer.
+            let terms = if matches!(shape, Shape::Mesh(_)) { bounces + 1 } else { bounces };
+            let expected: f64 = (0..=terms).map(|k| (rho as f64).powi(k as i32)).sum();
+            let (mean, err, _) = mean_and_error(&film, |_| true);
+            assert!(
+                (mean - expected).abs() < 5.0 * err + 2e-3 * expected,
+                "{shape:?} {bounces} bounces: {mean} ± {err}, expected {expected}"
+            );
+        }
+    }
+}
+
+/// The guided mode and plain path tracing agree on average (the filter only moves noise around
+/// and the lookup reads the right surface).
+#[test]
+fn guided_mode_is_unbiased_on_a_flat_lit_floor() {
+    let scene = Scene {
+        camera: Camera::look_at(Vec3::new(0.0, 2.0, 4.0), Vec3::ZERO, Vec3::Y, Fov::Vertical(50.0)),
+        sky: Sky::Colour(Rgb::new(0.4, 0.5, 0.7)),
+        materials: vec![white_diffuse(0.7), white_diffuse(0.5)],
+        objects: vec![
+            object(Shape::Plane { normal: Vec3::Y, offset: 0.0 }, 0),
+            object(Shape::Sphere { centre: Vec3::new(0.0, 0.7, 0.0), radius: 0.7 }, 1),
+        ],
+        ..Scene::default()
+    };
+    let plain = render(scene.clone(), 40, 30, &path(64, 2, Filter::None));
+    let mean = |f: &Film| f.pixels.iter().map(|p| p.colour.element_sum() as f64).sum::<f64>() / f.pixels.len() as f64;
+    for filter_area_direct in [false, true] {
+        let p = PathSettings { filter_area_direct, ..path(4, 2, Filter::Guided(GuidedParams::for_width(40))) };
+        let guided = render(scene.clone(), 40, 30, &p);
+        let (a, b) = (mean(&plain), mean(&guided));
+        assert!((a - b).abs() < 0.02 * a, "plain {a} vs guided {b} (sky direct filtered: {filter_area_direct})");
+    }
+}
+
+/// Bit-identical pixels on 1 and 2 threads, filtered and not.
+#[test]
+fn same_image_on_one_and_two_threads() {
+    let text = include_str!("../../../scenes/whitted-bench.toml");
+    let scene = glint_formats::load_scene_str(text, std::path::Path::new("."), "bench.toml").expect("scene").scene;
+    let world = World::new(scene);
+    for p in [path(2, 2, Filter::None), path(3, 1, Filter::Guided(GuidedParams::for_width(64)))] {
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| render_path(&world, &settings(64, 40), &p, &|_| {}).expect("render").0)
+        };
+        let (a, b) = (run(1), run(2));
+        assert!(a.pixels == b.pixels, "{p:?}: images differ between 1 and 2 threads");
+    }
+}
+
+/// Light sampling draws directions with the density it reports: an emissive quad above a
+/// point, under a non-uniform sky.
+#[test]
+fn light_sampling_matches_its_pdf() {
+    let gradient = Sky::Gradient { zenith: Rgb::new(0.2, 0.3, 0.9), horizon: Rgb::ONE, ground: Rgb::splat(0.1) };
+    check_light_sampling(Sky::Colour(Rgb::ZERO), 4.0);
+    check_light_sampling(gradient.clone(), 0.0);
+    check_light_sampling(gradient, 4.0);
+}
+
+fn check_light_sampling(sky: Sky, emission: f32) {
+    let quad = glint_scene::Mesh {
+        name: "light".into(),
+        positions: vec![
+            Vec3::new(-0.5, 1.0, -0.3),
+            Vec3::new(0.6, 1.0, -0.4),
+            Vec3::new(0.5, 1.2, 0.5),
+            Vec3::new(-0.4, 0.9, 0.4),
+        ],
+        normals: None,
+        uvs: None,
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+        triangle_materials: None,
+    };
+    let scene = Scene {
+        sky,
+        materials: vec![
+            Material { emission: Rgb::new(1.0, 0.75, 0.5) * emission, ..Material::default() },
+            Material::default(),
+        ],
+        meshes: vec![Arc::new(quad)],
+        objects: vec![
+            object(Shape::Mesh(0), 0),
+            // A tiny sphere to shade at.
+            object(Shape::Sphere { centre: Vec3::ZERO, radius: 1e-3 }, 1),
+        ],
+        ..Scene::default()
+    };
+    let world = World::new(scene);
+    let lights = LightSet::new(&world);
+    let probe = glint_core::Ray::new(Vec3::new(0.0, 0.0, 5.0), Vec3::new(0.0, 0.0, -1.0));
+    let hit = world.intersect(&probe).expect("the probe sphere");
+    let n = 400_000;
+    let mut dirs = Vec::new();
+    for i in 0..n {
+        let mut s = SampleStream::new(i, 0, 1);
+        if let Some(ls) = lights.sample(&world, &hit, s.next_1d(), s.next_2d()) {
+            dirs.push(ls.wi);
+        }
+    }
+    let from = hit.position;
+    let pdf = |d: Vec3| -> f64 {
+        let ray = glint_core::Ray::new(from + d * 1e-2, d);
+        // The sky is sampled whatever lies in front of it, so both densities add up where
+        // the quad hides the sky.
+        let surface = world.intersect(&ray).and_then(|h| lights.pdf_surface(from, d, &h)).unwrap_or(0.0);
+        (surface + lights.pdf_sky(&world, d).unwrap_or(0.0)) as f64
+    };
+    let out = chi2_sphere(&dirs, n as usize, pdf, 24, 48);
+    assert!(out.p_value > 0.01 / 3.0, "emission {emission}: {out:?}");
+}
+
+/// A scene without any light at all renders black, not NaN.
+#[test]
+fn a_dark_scene_is_black() {
+    let scene = Scene {
+        sky: Sky::Colour(Rgb::ZERO),
+        materials: vec![Material::default()],
+        objects: vec![object(Shape::Sphere { centre: Vec3::new(0.0, 0.0, -3.0), radius: 1.0 }, 0)],
+        ..Scene::default()
+    };
+    let film = render(scene, 16, 16, &path(2, 2, Filter::Guided(GuidedParams::for_width(16))));
+    assert!(film.pixels.iter().all(|p| p.colour == Rgb::ZERO));
+}
