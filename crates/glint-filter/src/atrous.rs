@@ -41,6 +41,29 @@ const MAX_ITERATIONS: u32 = 16;
 const FORWARD: [(isize, usize); 12] =
     [(1, 0), (2, 0), (-2, 1), (-1, 1), (0, 1), (1, 1), (2, 1), (-2, 2), (-1, 2), (0, 2), (1, 2), (2, 2)];
 
+/// The unit of σc: the standard deviation of the input's finite values over all three planes
+/// (1 when there are none or they are all equal), summed in f64 in a fixed order. So the filter
+/// commutes with `s·N + t` (s > 0) and one σc suits any exposure.
+pub fn colour_scale(input: [&[f32]; 3]) -> f32 {
+    let (mut sum, mut sum2, mut n) = (0.0f64, 0.0f64, 0u64);
+    for plane in input {
+        for &v in plane {
+            if v.is_finite() {
+                let v = f64::from(v);
+                sum += v;
+                sum2 += v * v;
+                n += 1;
+            }
+        }
+    }
+    if n == 0 {
+        return 1.0;
+    }
+    let mean = sum / n as f64;
+    let sd = ((sum2 / n as f64 - mean * mean).max(0.0)).sqrt() as f32;
+    if sd > 0.0 && sd.is_finite() { sd } else { 1.0 }
+}
+
 pub(crate) fn atrous_into_named(
     isa: Isa,
     input: [&[f32]; 3],
@@ -73,7 +96,7 @@ pub(crate) fn atrous_into_named(
     let kz = root / p.sigma_depth;
     finite &= geo.fill(3, guide.depth, |z| z.min(1.0) * kz);
     let mut cur = Padded::zeros(w, h, reach, 3);
-    let mut kc = root / p.sigma_colour;
+    let mut kc = root / (p.sigma_colour * colour_scale(input));
     for (k, plane) in input.iter().enumerate() {
         finite &= cur.fill(k, plane, |v| v * kc);
     }

@@ -142,16 +142,18 @@ impl BilateralParams {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AtrousParams {
     pub iterations: u32,
-    /// σc of the first iteration, in the input's units (halved at each iteration).
+    /// σc of the first iteration, relative to the standard deviation of the input (so one
+    /// setting suits any exposure and noise level; Dammertz et al. tuned it per scene), halved
+    /// at each iteration.
     pub sigma_colour: f32,
     pub sigma_normal: f32,
     pub sigma_depth: f32,
 }
 
 impl Default for AtrousParams {
-    /// 5 iterations (taps up to 32 px apart, a 125 px wide support); σc = 1 (the input's
-    /// units: for demodulated light of a scene exposed to about 1 this keeps the first passes
-    /// smoothing and the last ones edge-aware); σn = 0.3; σz = 0.1.
+    /// 5 iterations (taps up to 32 px apart, a 125 px wide support); σc = 1 (a colour step of
+    /// one standard deviation of the input weighs 1/e in the first pass: the first passes smooth
+    /// noise, the last ones keep edges); σn = 0.3; σz = 0.1.
     fn default() -> Self {
         Self { iterations: 5, sigma_colour: 1.0, sigma_normal: 0.3, sigma_depth: 0.1 }
     }

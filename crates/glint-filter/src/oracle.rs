@@ -144,9 +144,10 @@ pub fn atrous_direct(input: [&[f32]; 3], guide: &Guide, p: &AtrousParams) -> [Ve
     let (w, h) = (guide.width as i64, guide.height as i64);
     let mut cur: [Vec<f64>; 3] = input.map(|p| p.iter().map(|&v| v as f64).collect());
     let [sn, sz] = [p.sigma_normal, p.sigma_depth].map(|s| f64::from(s).powi(2));
+    let unit = crate::atrous::colour_scale(input);
     for it in 0..p.iterations {
         let step = 1i64 << it;
-        let sc = (f64::from(p.sigma_colour) / (1u64 << it) as f64).powi(2);
+        let sc = (f64::from(p.sigma_colour * unit) / (1u64 << it) as f64).powi(2);
         let mut next: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; (w * h) as usize]);
         for y in 0..h {
             for x in 0..w {

@@ -339,8 +339,9 @@ fn apply_into_matches_apply() {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
 
-    /// The guided and bilateral filters are linear in the input: F(s·N + t) = s·F(N) + t (up to
-    /// f32 rounding); À-Trous commutes with the shift only (its colour weights see differences).
+    /// Every filter commutes with F(s·N + t) = s·F(N) + t (up to f32 rounding): the guided and
+    /// bilateral filters are linear in the input, À-Trous measures colour differences in units
+    /// of the input's standard deviation.
     #[test]
     fn filters_commute_with_affine_changes_of_the_input(
         w in 1usize..40, h in 1usize..40, seed in 0u64..1000, radius in 1usize..12,
@@ -350,7 +351,7 @@ proptest! {
         let (filter, s) = match which {
             0 => (guided(radius, CHANNELS[(seed % 3) as usize]), scale),
             1 => (Filter::Bilateral(BilateralParams { radius, sigma_spatial: 2.0, sigma_normal: 0.3, sigma_depth: 0.1 }), scale),
-            _ => (Filter::Atrous(AtrousParams { iterations: 3, ..AtrousParams::default() }), 1.0),
+            _ => (Filter::Atrous(AtrousParams { iterations: 3, ..AtrousParams::default() }), scale),
         };
         let t = shift;
         let mut moved = scene.clone();
