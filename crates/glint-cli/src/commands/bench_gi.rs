@@ -234,7 +234,7 @@ pub fn gi(a: &BenchGiArgs) -> Result<()> {
                     let file = a.out.join(format!("{name}-{label}-{spp}spp.png"));
                     glint_image::write_png(&file, &img, &PngOptions::default())
                         .with_context(|| format!("cannot write {}", file.display()))?;
-                    if spp == 1 && label != "guided+area" {
+                    if spp == 1 {
                         row.push(img);
                     }
                 }
@@ -244,7 +244,7 @@ pub fn gi(a: &BenchGiArgs) -> Result<()> {
         let sheet = contact_sheet(&sheet_rows, 2);
         let file = a.out.join("gi-contact-sheet.png");
         glint_image::write_png(&file, &sheet, &PngOptions::default()).with_context(|| format!("cannot write {}", file.display()))?;
-        out!("# contact sheet (rows: scenes; columns: reference, then 1 spp unfiltered, bilateral, A-Trous, guided): {}", file.display());
+        out!("# contact sheet (rows: scenes; columns: reference, then 1 spp unfiltered, bilateral, A-Trous, guided, guided+area): {}", file.display());
         Ok(())
     })
 }
