@@ -64,9 +64,9 @@ pub struct RenderArgs {
     #[arg(long)]
     pub spp: Option<u32>,
     /// Rendering mode: whitted (ray tracing, Phong) or path (path tracing, indirect light
-    /// filtered).
-    #[arg(long, value_enum, default_value = "whitted")]
-    pub mode: ModeArg,
+    /// filtered). Default: the scene's `[render] mode`, else whitted.
+    #[arg(long, value_enum)]
+    pub mode: Option<ModeArg>,
     #[command(flatten)]
     pub path: PathArgs,
     /// Worker threads (default: every core).

@@ -138,3 +138,18 @@ fn bad_path_options_and_filter_inputs_fail_cleanly() {
     glint_image::write_exr(&dir.join("nan.exr"), &img).unwrap();
     assert_fails_cleanly(&["filter", "nan.exr", "-o", "out.png"], "Indirect.G", &dir);
 }
+
+/// A scene that says `[render] mode = "path"` renders in path mode unless --mode says otherwise.
+#[test]
+fn the_scene_chooses_the_mode() {
+    let dir = scratch("path-scene-mode");
+    let scene = "[render]\nmode = \"path\"\nmax_bounces = 1\n\n[camera]\nposition = [0.0, 0.0, 4.0]\nlook_at = [0.0, 0.0, 0.0]\n\n[[object]]\ntype = \"sphere\"\ncentre = [0.0, 0.0, 0.0]\nradius = 1.0\n";
+    std::fs::write(dir.join("s.toml"), scene).unwrap();
+    let o = glint(&["render", "s.toml", "--width", "24", "--height", "16", "-o", "p.exr"], &dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("path 24x16") && stderr(&o).contains("1 bounces"), "{}", stderr(&o));
+    assert!(glint_image::read_image(&dir.join("p.exr")).unwrap().channel("Indirect.R").is_some());
+    let o = glint(&["render", "s.toml", "--mode", "whitted", "--width", "24", "--height", "16", "-o", "w.exr"], &dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(glint_image::read_image(&dir.join("w.exr")).unwrap().channel("Indirect.R").is_none());
+}

@@ -23,7 +23,7 @@ pub use light::{Attenuation, Light};
 pub use material::Material;
 pub use mesh::Mesh;
 pub use object::{Object, Shape};
-pub use scene::{RenderDefaults, Scene};
+pub use scene::{RenderDefaults, RenderMode, Scene};
 pub use sky::{
     CubeFace, CubeMap, IrradianceSh, LatLongMap, Sky, SkySample, SkySampler, SkyTransform, cube_direction,
     cube_face_st, latlong_direction, latlong_uv,

@@ -30,11 +30,31 @@ pub struct RenderDefaults {
     pub max_depth: u32,
     /// A reflection/refraction branch whose accumulated weight falls below this is not traced.
     pub min_contribution: f32,
+    /// The mode a scene is meant for (the command line may choose another).
+    pub mode: RenderMode,
+    /// Path mode: indirect bounces.
+    pub max_bounces: u32,
+}
+
+/// Rendering modes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum RenderMode {
+    #[default]
+    Whitted,
+    Path,
 }
 
 impl Default for RenderDefaults {
     fn default() -> Self {
-        Self { width: 1280, height: 720, samples_per_side: 1, max_depth: 8, min_contribution: 1e-3 }
+        Self {
+            width: 1280,
+            height: 720,
+            samples_per_side: 1,
+            max_depth: 8,
+            min_contribution: 1e-3,
+            mode: RenderMode::Whitted,
+            max_bounces: 3,
+        }
     }
 }
 

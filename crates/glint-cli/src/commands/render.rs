@@ -8,7 +8,7 @@ use glint_filter::{AtrousParams, BilateralParams, Filter, GuideChannels, GuidedP
 use glint_formats::sky::{FaceTransform, SkyLoadOptions, SkySource, load_sky};
 use glint_image::{PngOptions, ToneMap};
 use glint_render::{PathSettings, RenderSettings, World, render_path};
-use glint_scene::{Camera, Fov, Scene, Sky, SkyTransform};
+use glint_scene::{Camera, Fov, RenderMode, Scene, Sky, SkyTransform};
 use std::path::Path;
 use std::time::Duration;
 
@@ -35,7 +35,7 @@ pub fn apply_overrides(scene: &mut Scene, args: &RenderArgs) -> Result<()> {
         scene.render.height = h;
     }
     if let Some(spp) = args.spp
-        && args.mode == ModeArg::Whitted
+        && mode(args, scene) == ModeArg::Whitted
     {
         let n = (spp as f64).sqrt().round() as u32;
         if spp == 0 || n * n != spp {
@@ -130,6 +130,14 @@ fn apply_sky(scene: &mut Scene, args: &SkyArgs, input: Option<&Path>) -> Result<
     Ok(())
 }
 
+/// The mode to render in: the command line's, else the scene's.
+pub fn mode(args: &RenderArgs, scene: &Scene) -> ModeArg {
+    args.mode.unwrap_or(match scene.render.mode {
+        RenderMode::Whitted => ModeArg::Whitted,
+        RenderMode::Path => ModeArg::Path,
+    })
+}
+
 /// The filter the options describe, its defaults scaled to an image `width` pixels wide.
 pub fn filter_from_args(kind: FilterArg, o: &FilterOptions, width: u32) -> Result<Filter> {
     let w = width as usize;
@@ -180,8 +188,8 @@ pub fn filter_from_args(kind: FilterArg, o: &FilterOptions, width: u32) -> Resul
     })
 }
 
-/// Path-mode settings from the command line.
-fn path_settings(args: &RenderArgs, width: u32) -> Result<PathSettings> {
+/// Path-mode settings from the command line and the scene's defaults.
+fn path_settings(args: &RenderArgs, scene: &Scene, width: u32) -> Result<PathSettings> {
     let p = &args.path;
     let time_budget = match p.time {
         Some(t) if t.is_finite() && t > 0.0 && t < 1e6 => Some(Duration::from_secs_f64(t)),
@@ -190,7 +198,7 @@ fn path_settings(args: &RenderArgs, width: u32) -> Result<PathSettings> {
     };
     Ok(PathSettings {
         spp: args.spp.unwrap_or(1),
-        max_bounces: p.max_bounces.unwrap_or(PathSettings::default().max_bounces),
+        max_bounces: p.max_bounces.unwrap_or(scene.render.max_bounces),
         filter: filter_from_args(p.filter, &p.filter_options, width)?,
         time_budget,
         clamp_indirect: p.clamp,
@@ -214,8 +222,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let mut settings = RenderSettings::from_defaults(&scene.render);
     settings.seed = args.seed;
 
-    let path = match args.mode {
-        ModeArg::Path => Some(path_settings(args, settings.width)?),
+    let path = match mode(args, &scene) {
+        ModeArg::Path => Some(path_settings(args, &scene, settings.width)?),
         ModeArg::Whitted => None,
     };
 

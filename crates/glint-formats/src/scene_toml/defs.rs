@@ -43,6 +43,8 @@ pub(crate) struct ImageDef {
 pub(crate) struct RenderDef {
     pub max_depth: Option<Spanned<u32>>,
     pub min_contribution: Option<Spanned<Num>>,
+    pub mode: Option<Spanned<String>>,
+    pub max_bounces: Option<Spanned<u32>>,
 }
 
 #[derive(Deserialize, Debug)]

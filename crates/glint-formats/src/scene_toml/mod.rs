@@ -23,8 +23,8 @@ use defs::{
 use glint_core::{Affine3A, Mat3, Rgb, Vec2, Vec3};
 use glint_scene::scene::MAX_IMAGE_SIDE;
 use glint_scene::{
-    Attenuation, Camera, CubeFace, Fov, Light, Material, Mesh, Object, RenderDefaults, Scene, Shape, Sky, Texture,
-    TextureImage,
+    Attenuation, Camera, CubeFace, Fov, Light, Material, Mesh, Object, RenderDefaults, RenderMode, Scene, Shape, Sky,
+    Texture, TextureImage,
 };
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -190,6 +190,22 @@ impl Builder<'_> {
             }
             if let Some(c) = &render.min_contribution {
                 r.min_contribution = self.non_negative(c, "min_contribution")?;
+            }
+            if let Some(m) = &render.mode {
+                r.mode = match m.get_ref().as_str() {
+                    "whitted" => RenderMode::Whitted,
+                    "path" => RenderMode::Path,
+                    other => {
+                        return Err(self.err(&m.span(), format!("mode {other:?}: use \"whitted\" or \"path\"")));
+                    }
+                };
+            }
+            if let Some(b) = &render.max_bounces {
+                let n = *b.get_ref();
+                if n > MAX_DEPTH {
+                    return Err(self.err(&b.span(), format!("max_bounces {n} must be at most {MAX_DEPTH}")));
+                }
+                r.max_bounces = n;
             }
         }
         Ok(r)

@@ -283,6 +283,17 @@ fn absurd_max_depth_is_an_error() {
 }
 
 #[test]
+fn render_mode_and_bounces_are_read_and_checked() {
+    let text = format!("[render]\nmode = \"path\"\nmax_bounces = 2\n{BASE}");
+    let s = load_scene_str(&text, Path::new("."), "t.toml").expect("valid").scene;
+    assert_eq!((s.render.mode, s.render.max_bounces), (glint_scene::RenderMode::Path, 2));
+    let e = error(&format!("[render]\nmode = \"radiosity\"\n{BASE}"));
+    assert_at(&e, 2);
+    assert!(e.to_string().contains("radiosity"), "{e}");
+    assert_at(&error(&format!("[render]\nmode = \"path\"\nmax_bounces = 1000\n{BASE}")), 3);
+}
+
+#[test]
 fn malformed_toml_is_a_syntax_error_with_position() {
     let text = BASE.replace("radius = 1", "radius = = 1");
     let e = error(&text);
