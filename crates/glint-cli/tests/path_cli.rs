@@ -153,3 +153,48 @@ fn the_scene_chooses_the_mode() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(glint_image::read_image(&dir.join("w.exr")).unwrap().channel("Indirect.R").is_none());
 }
+
+/// `glint bench filters` and `glint bench gi` run end to end on tiny settings (the real runs are
+/// in BENCHMARKS.md §6).
+#[test]
+fn the_paper_benchmarks_run() {
+    let Some(data) = common::shared("data/scenes/cornell_box/cornell_box_open.obj") else { return };
+    let data = data.parent().and_then(|p| p.parent()).and_then(|p| p.parent()).expect("data folder");
+    let data = data.to_str().expect("utf-8 path");
+    let dir = scratch("bench-gi");
+    let o = glint(&["bench", "filters", "--data", data, "--width", "48", "--height", "32", "--reps", "1"], &dir);
+    // Sponza is the filters' input; without it the command says which file is missing.
+    assert!(o.status.success() || stderr(&o).contains("sponza"), "{}", stderr(&o));
+    let o = glint(
+        &[
+            "bench",
+            "gi",
+            "--data",
+            data,
+            "--scenes",
+            "cornell-box",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--reps",
+            "1",
+            "--quality-width",
+            "32",
+            "--quality-height",
+            "24",
+            "--ref-spp",
+            "4",
+            "--out",
+            "gi",
+        ],
+        &dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("Table 1") && out.contains("Figure 8") && out.contains("guided+area"), "{out}");
+    assert!(dir.join("gi/gi-contact-sheet.png").exists());
+    assert!(dir.join("gi/cornell-box-guided-1spp.png").exists());
+    let o = glint(&["bench", "gi", "--data", "nowhere", "--skip-quality"], &dir);
+    assert!(!o.status.success() && stderr(&o).contains("nowhere"), "{}", stderr(&o));
+}
