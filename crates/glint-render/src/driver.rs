@@ -30,14 +30,15 @@ impl RenderStats {
     }
 }
 
+/// What a band of rows counted (every mode's driver reduces these).
 #[derive(Default, Clone, Copy)]
-struct BandStats {
-    rays: RayCounts,
-    rejected: u64,
+pub(crate) struct BandStats {
+    pub rays: RayCounts,
+    pub rejected: u64,
 }
 
 impl BandStats {
-    fn merge(mut self, o: BandStats) -> BandStats {
+    pub fn merge(mut self, o: BandStats) -> BandStats {
         self.rays.add(&o.rays);
         self.rejected += o.rejected;
         self

@@ -5,6 +5,7 @@
 //! Scenes are the repository's scenes/*.toml, embedded in the binary, whose model paths point
 //! into ../shared/data; `--data DIR` points them elsewhere.
 
+use super::bench::median;
 use crate::cli::{BenchFiltersArgs, BenchGiArgs};
 use crate::input;
 use anyhow::{Context, Result, bail};
@@ -42,12 +43,6 @@ fn load_scene(name: &str, text: &str, data: &Path) -> Result<Scene> {
     let loaded = glint_formats::load_scene_str(&text, Path::new("."), &format!("scenes/{name}.toml"))
         .with_context(|| format!("cannot load scene {name}"))?;
     Ok(loaded.scene)
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
 }
 
 fn settings(scene: &Scene, width: u32, height: u32, seed: u64) -> RenderSettings {

@@ -22,6 +22,7 @@ pub mod integrator;
 pub mod lights;
 pub mod lookup;
 
+use crate::driver::BandStats;
 use crate::film::{Film, FilmPixel};
 use crate::settings::RenderSettings;
 use crate::whitted::RayCounts;
@@ -140,20 +141,6 @@ struct Accum {
     indirect: Rgb,
     covered: u32,
     samples: u32,
-}
-
-#[derive(Clone, Copy, Default)]
-struct BandStats {
-    rays: RayCounts,
-    rejected: u64,
-}
-
-impl BandStats {
-    fn merge(mut self, o: BandStats) -> BandStats {
-        self.rays.add(&o.rays);
-        self.rejected += o.rejected;
-        self
-    }
 }
 
 /// Everything a pass needs, shared by the threads.
