@@ -20,6 +20,7 @@ mod gltf_file;
 mod model;
 mod obj;
 pub mod ply;
+pub mod points;
 mod scene_toml;
 pub mod sky;
 mod texture_file;

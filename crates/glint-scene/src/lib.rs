@@ -1,6 +1,7 @@
 //! glint-scene: the validated, immutable scene every mode renders.
 //!
-//! Camera, shapes (sphere, plane, triangle mesh), materials, textures, lights and the sky.
+//! Camera, shapes (sphere, plane, triangle mesh), point clouds, materials, textures, lights and
+//! the sky.
 //! Built by glint-formats from files (or by code), checked once by [`Scene::validate`], then
 //! read-only: integrators never see an invalid value, so hot paths need no `Result`.
 //! Depends on glint-core and glint-image only; knows nothing of acceleration structures.
@@ -13,6 +14,7 @@ pub mod light;
 pub mod material;
 pub mod mesh;
 pub mod object;
+pub mod points;
 pub mod scene;
 pub mod sky;
 pub mod texture;
@@ -23,6 +25,7 @@ pub use light::{Attenuation, Light};
 pub use material::Material;
 pub use mesh::Mesh;
 pub use object::{Object, Shape};
+pub use points::PointCloud;
 pub use scene::{RenderDefaults, RenderMode, Scene};
 pub use sky::{
     CubeFace, CubeMap, IrradianceSh, LatLongMap, Sky, SkySample, SkySampler, SkyTransform, cube_direction,
