@@ -25,7 +25,7 @@ pub use light::{Attenuation, Light};
 pub use material::Material;
 pub use mesh::Mesh;
 pub use object::{Object, Shape};
-pub use points::PointCloud;
+pub use points::{Orientation, PointCloud};
 pub use scene::{RenderDefaults, RenderMode, Scene};
 pub use sky::{
     CubeFace, CubeMap, IrradianceSh, LatLongMap, Sky, SkySample, SkySampler, SkyTransform, cube_direction,

@@ -2,7 +2,23 @@
 //! structure-of-arrays form (the projection pass reads positions alone).
 
 use crate::SceneError;
+use glint_core::glam::DVec3;
 use glint_core::{Bounds3, Rgb, Vec3};
+
+/// What the sign of the normals can be trusted for, and how estimation should orient them.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Orientation {
+    /// Normals point out of the surface: back faces may be culled.
+    Oriented,
+    /// Normals (to be estimated) should face this point, the sensor that scanned the cloud.
+    TowardSensor(Vec3),
+    /// Normals (to be estimated) should have a positive component along this direction
+    /// (airborne LiDAR: up).
+    Up(Vec3),
+    /// No reliable sign: the cloud is drawn two-sided.
+    #[default]
+    Unknown,
+}
 
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PointCloud {
@@ -14,6 +30,10 @@ pub struct PointCloud {
     pub radii: Option<Vec<f32>>,
     /// Linear RGB.
     pub colours: Option<Vec<Rgb>>,
+    /// The file's coordinates are `origin + position`: large (geo-referenced) coordinates are
+    /// recentred in f64 before they become f32.
+    pub origin: DVec3,
+    pub orientation: Orientation,
 }
 
 impl PointCloud {

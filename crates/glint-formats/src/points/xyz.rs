@@ -13,7 +13,7 @@
 use crate::FormatError;
 use glint_core::colour::srgb_to_linear;
 use glint_core::{Rgb, Vec3};
-use glint_scene::PointCloud;
+use glint_scene::{Orientation, PointCloud};
 use std::path::Path;
 
 /// Read an XYZ file.
@@ -94,7 +94,8 @@ pub fn parse_xyz(bytes: &[u8], path: &Path) -> Result<PointCloud, FormatError> {
             .collect()
     });
     let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "points".into());
-    let cloud = PointCloud { name, positions, normals, radii: None, colours };
+    let orientation = if normals.is_some() { Orientation::Oriented } else { Orientation::Unknown };
+    let cloud = PointCloud { name, positions, normals, radii: None, colours, orientation, ..PointCloud::default() };
     cloud.validate().map_err(|source| FormatError::Invalid { file: path.to_path_buf(), source })?;
     Ok(cloud)
 }
