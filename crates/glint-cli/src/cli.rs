@@ -16,8 +16,12 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// Render a scene (.toml) or a model file (.obj, .ply, .gltf, .glb); the demo scene without one.
+    /// Render a scene (.toml), a model file (.obj, .ply, .gltf, .glb) or a point cloud (.las,
+    /// .laz, .ply, .xyz, .pts); the demo scene without one.
     Render(Box<RenderArgs>),
+    /// Point clouds: sample a mesh into an oriented cloud.
+    #[command(subcommand)]
+    Points(PointsCommand),
     /// Benchmarks (ray throughput, Whitted frames).
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -63,12 +67,15 @@ pub struct RenderArgs {
     /// 16, ...; path: any number (per pass with --time).
     #[arg(long)]
     pub spp: Option<u32>,
-    /// Rendering mode: whitted (ray tracing, Phong) or path (path tracing, indirect light
-    /// filtered). Default: the scene's `[render] mode`, else whitted.
+    /// Rendering mode: whitted (ray tracing, Phong), path (path tracing, indirect light
+    /// filtered) or points (point clouds, pull-push). Default: the scene's `[render] mode`, else
+    /// points for a point-cloud file and whitted for the rest.
     #[arg(long, value_enum)]
     pub mode: Option<ModeArg>,
     #[command(flatten)]
     pub path: PathArgs,
+    #[command(flatten)]
+    pub points: PointArgs,
     /// Worker threads (default: every core).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -101,6 +108,92 @@ pub enum ModeArg {
     #[default]
     Whitted,
     Path,
+    Points,
+}
+
+/// Points mode (DESIGN.md §3) and point-cloud preparation.
+#[derive(Args, Debug, Clone, Default)]
+pub struct PointArgs {
+    /// How holes between points are filled: ellipses (pull-push with elliptical box filters,
+    /// the paper's method), pull-push (without ellipses), raw (one pixel per point), squares
+    /// (fixed-size square splats, the common viewer's baseline).
+    #[arg(long, value_enum, default_value = "ellipses")]
+    pub fill: FillArg,
+    /// Side of the squares of --fill squares, in pixels.
+    #[arg(long = "square-size", default_value_t = 3)]
+    pub square_size: u32,
+    /// Shading: auto (phong with normals, edl without), phong, edl (eye-dome lighting), flat.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub shading: ShadingArg,
+    /// Eye-dome lighting strength.
+    #[arg(long = "edl-strength", default_value_t = 1.0)]
+    pub edl_strength: f32,
+    /// Draw back faces of clouds with oriented normals too (no culling).
+    #[arg(long = "two-sided")]
+    pub two_sided: bool,
+    /// Colour of a cloud file's points: auto (RGB, else intensity; elevation for LAS), rgb,
+    /// intensity, classification, elevation.
+    #[arg(long = "colour-by", value_enum, default_value = "auto")]
+    pub colour_by: ColourByArg,
+    /// Neighbours for normal and radius estimation of clouds without them.
+    #[arg(long, default_value_t = 16)]
+    pub neighbours: usize,
+    /// Scale of the point radii (estimated or given).
+    #[arg(long = "radius-scale", default_value_t = 1.0)]
+    pub radius_scale: f32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, ValueEnum)]
+pub enum FillArg {
+    #[default]
+    Ellipses,
+    PullPush,
+    Raw,
+    Squares,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, ValueEnum)]
+pub enum ShadingArg {
+    #[default]
+    Auto,
+    Phong,
+    Edl,
+    Flat,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, ValueEnum)]
+pub enum ColourByArg {
+    #[default]
+    Auto,
+    Rgb,
+    Intensity,
+    Classification,
+    Elevation,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum PointsCommand {
+    /// Sample a mesh into a point cloud: area-weighted, with oriented normals and radii
+    /// (binary PLY out).
+    Sample(SampleArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct SampleArgs {
+    /// Mesh file (.obj, .ply, .gltf, .glb).
+    pub mesh: PathBuf,
+    /// Number of points.
+    #[arg(long)]
+    pub count: usize,
+    /// Output point cloud (.ply).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Seed of the sample positions.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Print no summary.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, ValueEnum)]
@@ -250,6 +343,33 @@ pub enum BenchCommand {
     /// The guided-filtering paper's table 1 (render times) and figure 8 (MSE against a
     /// converged reference, with a contact sheet).
     Gi(BenchGiArgs),
+    /// The point-rendering paper's table 1: frames per second of the points mode on scans, a
+    /// LiDAR tile and sampled clouds, split into projection, pull-push and shading.
+    Points(BenchPointsArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct BenchPointsArgs {
+    /// Folder of the shared test data (pointclouds/, meshes/).
+    #[arg(long, default_value = "../shared/data")]
+    pub data: PathBuf,
+    /// Comma-separated subset of bunny, dragon, autzen, sampled-1m, sampled-5m.
+    #[arg(long)]
+    pub clouds: Option<String>,
+    /// Comma-separated square image sides.
+    #[arg(long, default_value = "512,1024")]
+    pub sizes: String,
+    /// Comma-separated subset of full, pull-push, raw, squares (the ablations).
+    #[arg(long, default_value = "full")]
+    pub fills: String,
+    /// Timed frames per setting (the median is reported).
+    #[arg(long, default_value_t = 21)]
+    pub reps: usize,
+    /// Write each first frame as PNG into this folder (the side-by-side figures).
+    #[arg(long)]
+    pub images: Option<PathBuf>,
+    #[arg(long)]
+    pub threads: Option<usize>,
 }
 
 #[derive(Args, Debug)]

@@ -2,13 +2,21 @@
 
 use anyhow::{Context, Result, bail};
 use glint_core::Vec3;
+use glint_formats::points::{ColourBy, PointReadOptions};
 use glint_scene::Scene;
 use std::path::Path;
 
-/// Load a scene or model (the demo scene when `path` is None); warnings go to stderr.
+/// Load a scene, model or point cloud (the demo scene when `path` is None); warnings go to
+/// stderr.
 pub fn load(path: Option<&Path>, quiet: bool) -> Result<Scene> {
+    load_with(path, ColourBy::Auto, quiet)
+}
+
+/// [`load`], colouring a point-cloud file's points by `colour_by`.
+pub fn load_with(path: Option<&Path>, colour_by: ColourBy, quiet: bool) -> Result<Scene> {
+    let options = PointReadOptions { colour_by };
     let loaded = match path {
-        Some(p) => glint_formats::load(p).with_context(|| format!("cannot load {}", p.display()))?,
+        Some(p) => glint_formats::load_with(p, &options).with_context(|| format!("cannot load {}", p.display()))?,
         None => glint_formats::load_scene_str(glint_formats::DEMO_SCENE, Path::new("."), "<built-in demo scene>")
             .context("the built-in demo scene does not load (a bug)")?,
     };

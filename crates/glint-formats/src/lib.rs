@@ -26,7 +26,7 @@ pub mod sky;
 mod texture_file;
 
 pub use error::FormatError;
-pub use model::{Model, load_model, scene_for_model};
+pub use model::{Model, default_camera, load_model, scene_for_cloud, scene_for_model};
 pub use sky::{
     FaceTransform, LoadedSky, SkyLayout, SkyLoadOptions, SkyMapRef, SkySource, SkyWriteOptions, WrittenSky, load_sky,
     seam_mismatch, write_sky,
@@ -48,10 +48,22 @@ pub struct Loaded {
     pub warnings: Vec<String>,
 }
 
-/// Reads a scene (`.toml`) or a model to look at (`.obj`, `.ply`, `.gltf`, `.glb`; see
-/// [`scene_for_model`]), by extension, case-insensitive.
+/// Reads a scene (`.toml`), a model to look at (`.obj`, `.ply`, `.gltf`, `.glb`; see
+/// [`scene_for_model`]) or a point cloud (`.las`, `.laz`, `.xyz`, `.pts`, and a `.ply` without
+/// faces; see [`scene_for_cloud`]), by extension, case-insensitive.
 pub fn load(path: &Path) -> Result<Loaded, FormatError> {
+    load_with(path, &points::PointReadOptions::default())
+}
+
+/// [`load`], colouring a point cloud file as `points` says (scene files say it themselves).
+pub fn load_with(path: &Path, points: &points::PointReadOptions) -> Result<Loaded, FormatError> {
     let ext = model::extension(path);
+    if points::is_point_cloud_path(path) || (ext.eq_ignore_ascii_case("ply") && points::ply_is_point_cloud(path)?) {
+        let cloud = points::read_point_cloud(path, points)?;
+        let scene = scene_for_cloud(cloud);
+        scene.validate().map_err(|source| FormatError::Invalid { file: path.to_path_buf(), source })?;
+        return Ok(Loaded { scene, warnings: Vec::new() });
+    }
     if ext.eq_ignore_ascii_case("toml") {
         let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
         let base_dir = path.parent().unwrap_or(Path::new(""));

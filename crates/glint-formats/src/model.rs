@@ -8,7 +8,8 @@ use crate::scene_toml::Shading;
 use crate::{gltf_file, obj, ply};
 use glint_core::{Affine3A, Bounds3, Rgb, Vec3};
 use glint_scene::{
-    Attenuation, Camera, Fov, Light, Material, Mesh, Object, RenderDefaults, Scene, Shape, Sky, Texture,
+    Attenuation, Camera, CloudObject, Fov, Light, Material, Mesh, Object, Orientation, PointCloud, RenderDefaults,
+    RenderMode, Scene, Shape, Sky, Texture,
 };
 use std::path::Path;
 use std::sync::Arc;
@@ -119,37 +120,7 @@ const MODEL_MARGIN: f32 = 1.25;
 pub fn scene_for_model(model: Model) -> Scene {
     let Model { meshes, mut materials, textures, .. } = model;
     let bounds = meshes.iter().fold(Bounds3::EMPTY, |b, m| b.union(m.bounds()));
-    let (centre, extent) = if bounds.is_empty() {
-        (Vec3::ZERO, Vec3::ONE)
-    } else {
-        (bounds.centre(), bounds.extent().max(Vec3::splat(1e-6)))
-    };
-    let radius = extent.length() * 0.5;
-    let render = RenderDefaults::default();
-    let aspect = render.width as f32 / render.height as f32;
-    // The box's front face (z = max) subtends the largest angles: fit its half height and half
-    // width into the vertical and horizontal fields of view.
-    let tan_v = (MODEL_FOV_DEG * 0.5).to_radians().tan();
-    let to_front = (0.5 * extent.y / tan_v).max(0.5 * extent.x / (tan_v * aspect));
-    let distance = 0.5 * extent.z + MODEL_MARGIN * to_front;
-    let camera = Camera {
-        position: centre + Vec3::Z * distance,
-        forward: -Vec3::Z,
-        up: Vec3::Y,
-        fov: Fov::Vertical(MODEL_FOV_DEG),
-    };
-    let key = Light::Point {
-        position: centre + Vec3::new(-1.0, 1.2, 1.5) * (2.0 * radius),
-        colour: Rgb::ONE,
-        intensity: 0.85,
-        attenuation: Attenuation::None,
-    };
-    let fill = Light::Point {
-        position: centre + Vec3::new(1.5, 0.3, 1.0) * (2.0 * radius),
-        colour: Rgb::ONE,
-        intensity: 0.35,
-        attenuation: Attenuation::None,
-    };
+    let (camera, lights) = framing(bounds, false, default_aspect());
     let default_material = materials.len();
     materials.push(Material::default());
     let objects = (0..meshes.len())
@@ -163,16 +134,111 @@ pub fn scene_for_model(model: Model) -> Scene {
     Scene {
         camera,
         sky: Sky::Colour(Rgb::splat(0.2)),
-        render,
+        render: RenderDefaults::default(),
         ambient: Rgb::ONE,
         sky_ambient: false,
         materials,
         textures,
         meshes: meshes.into_iter().map(Arc::new).collect(),
         objects,
-        lights: vec![key, fill],
+        clouds: Vec::new(),
+        lights,
     }
 }
+
+/// A scene to look at one point cloud, drawn by the points mode: framed like a model (seen
+/// from +Z, looking along −Z), except that a flat airborne scan (normals to be turned up, a
+/// tile much wider than tall) is seen from 40° above the horizon on that side, since edge-on it
+/// would be a line.
+pub fn scene_for_cloud(cloud: PointCloud) -> Scene {
+    let bounds = cloud.bounds();
+    let (camera, lights) = framing(bounds, is_airborne(&cloud), default_aspect());
+    Scene {
+        camera,
+        sky: Sky::Colour(Rgb::splat(0.2)),
+        render: RenderDefaults { mode: RenderMode::Points, ..RenderDefaults::default() },
+        ambient: Rgb::ONE,
+        sky_ambient: false,
+        materials: vec![Material::default()],
+        clouds: vec![CloudObject {
+            name: cloud.name.clone(),
+            cloud: Arc::new(cloud),
+            material: 0,
+            world_from_object: Affine3A::IDENTITY,
+        }],
+        lights,
+        ..Scene::default()
+    }
+}
+
+fn default_aspect() -> f32 {
+    let r = RenderDefaults::default();
+    r.width as f32 / r.height as f32
+}
+
+/// A flat scan whose normals are to be turned up (airborne LiDAR).
+fn is_airborne(cloud: &PointCloud) -> bool {
+    let extent = cloud.bounds().extent();
+    matches!(cloud.orientation, Orientation::Up(_)) && extent.y < 0.5 * extent.x.max(extent.z)
+}
+
+/// The default view of a scene made by [`scene_for_model`] or [`scene_for_cloud`], refitted to
+/// an image of `width × height` (those scenes are framed for the default 16:9 image).
+pub fn default_camera(scene: &Scene, width: u32, height: u32) -> Camera {
+    let elevated = scene.objects.is_empty() && scene.clouds.len() == 1 && is_airborne(&scene.clouds[0].cloud);
+    framing(scene.bounds(), elevated, width as f32 / height.max(1) as f32).0
+}
+
+/// The camera that frames `bounds` from its +Z side (from `ELEVATED_DEG` above when
+/// `elevated`) in an image of the given aspect (width / height), and a key and a fill light
+/// beside it.
+fn framing(bounds: Bounds3, elevated: bool, aspect: f32) -> (Camera, Vec<Light>) {
+    let (centre, extent) = if bounds.is_empty() {
+        (Vec3::ZERO, Vec3::ONE)
+    } else {
+        (bounds.centre(), bounds.extent().max(Vec3::splat(1e-6)))
+    };
+    let radius = extent.length() * 0.5;
+    let tan_v = (MODEL_FOV_DEG * 0.5).to_radians().tan();
+    let camera = if elevated {
+        // Seen from above at ELEVATED_DEG, the box shows its width across and its depth
+        // foreshortened (plus its height) up the image; fit both, then step back by half the
+        // box's depth along the view.
+        let (sin_e, cos_e) = ELEVATED_DEG.to_radians().sin_cos();
+        let half_up = 0.5 * (extent.z * sin_e + extent.y * cos_e);
+        let to_front = (half_up / tan_v).max(0.5 * extent.x / (tan_v * aspect));
+        let distance = MODEL_MARGIN * to_front + 0.5 * (extent.z * cos_e + extent.y * sin_e);
+        let dir = Vec3::new(0.0, sin_e, cos_e);
+        Camera::look_at(centre + dir * distance, centre, Vec3::Y, Fov::Vertical(MODEL_FOV_DEG))
+    } else {
+        // The box's front face (z = max) subtends the largest angles: fit its half height and
+        // half width into the vertical and horizontal fields of view.
+        let to_front = (0.5 * extent.y / tan_v).max(0.5 * extent.x / (tan_v * aspect));
+        let distance = 0.5 * extent.z + MODEL_MARGIN * to_front;
+        Camera {
+            position: centre + Vec3::Z * distance,
+            forward: -Vec3::Z,
+            up: Vec3::Y,
+            fov: Fov::Vertical(MODEL_FOV_DEG),
+        }
+    };
+    let key = Light::Point {
+        position: centre + Vec3::new(-1.0, 1.2, 1.5) * (2.0 * radius),
+        colour: Rgb::ONE,
+        intensity: 0.85,
+        attenuation: Attenuation::None,
+    };
+    let fill = Light::Point {
+        position: centre + Vec3::new(1.5, 0.3, 1.0) * (2.0 * radius),
+        colour: Rgb::ONE,
+        intensity: 0.35,
+        attenuation: Attenuation::None,
+    };
+    (camera, vec![key, fill])
+}
+
+/// Elevation of the default view of an airborne scan.
+const ELEVATED_DEG: f32 = 40.0;
 
 #[cfg(test)]
 mod tests {

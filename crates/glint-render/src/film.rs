@@ -55,6 +55,17 @@ impl Film {
         Self { width, height, pixels: vec![FilmPixel::default(); width as usize * height as usize], path_aovs: false }
     }
 
+    /// Take `other`'s pixel wherever it saw a surface nearer than this film's (both of one
+    /// size; depth is eye depth in both): how the points mode lays traced meshes over clouds.
+    pub fn composite_nearer(&mut self, other: &Film) {
+        debug_assert_eq!((self.width, self.height), (other.width, other.height));
+        for (p, o) in self.pixels.iter_mut().zip(&other.pixels) {
+            if o.coverage > 0.0 && o.depth < p.depth {
+                *p = *o;
+            }
+        }
+    }
+
     pub fn pixel(&self, x: u32, y: u32) -> &FilmPixel {
         &self.pixels[y as usize * self.width as usize + x as usize]
     }

@@ -24,8 +24,8 @@ pub use error::SceneError;
 pub use light::{Attenuation, Light};
 pub use material::Material;
 pub use mesh::Mesh;
-pub use object::{Object, Shape};
-pub use points::{Orientation, PointCloud};
+pub use object::{CloudObject, Object, Shape};
+pub use points::{EstimateSettings, Orientation, PointCloud, estimate_normals, estimate_radii, prepare, sample_mesh};
 pub use scene::{RenderDefaults, RenderMode, Scene};
 pub use sky::{
     CubeFace, CubeMap, IrradianceSh, LatLongMap, Sky, SkySample, SkySampler, SkyTransform, cube_direction,

@@ -1,6 +1,8 @@
 //! Objects: a shape, a material and a placement (an instance, in BVH terms).
 
+use crate::PointCloud;
 use glint_core::{Affine3A, Vec3};
+use std::sync::Arc;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Shape {
@@ -19,5 +21,16 @@ pub struct Object {
     /// Index into `Scene::materials`.
     pub material: usize,
     /// Placement of the shape in the world. Planes ignore it (their equation is in world space).
+    pub world_from_object: Affine3A,
+}
+
+/// A point cloud placed in the scene: drawn by the points mode (DESIGN.md §3); the ray-tracing
+/// modes do not see it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CloudObject {
+    pub name: String,
+    pub cloud: Arc<PointCloud>,
+    /// Index into `Scene::materials`: Phong parameters, and the colour of points without one.
+    pub material: usize,
     pub world_from_object: Affine3A,
 }

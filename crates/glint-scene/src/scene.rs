@@ -1,6 +1,6 @@
 //! The scene: everything a render needs, validated once.
 
-use crate::{Camera, Light, Material, Mesh, Object, SceneError, Shape, Sky, Texture};
+use crate::{Camera, CloudObject, Light, Material, Mesh, Object, SceneError, Shape, Sky, Texture};
 use glint_core::{Bounds3, Rgb, Vec3};
 use std::sync::Arc;
 
@@ -42,6 +42,8 @@ pub enum RenderMode {
     #[default]
     Whitted,
     Path,
+    /// Point clouds by pull-push reconstruction (meshes, if any, traced Whitted-style beside).
+    Points,
 }
 
 impl Default for RenderDefaults {
@@ -73,6 +75,8 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     pub meshes: Vec<Arc<Mesh>>,
     pub objects: Vec<Object>,
+    /// Point clouds (drawn by the points mode only).
+    pub clouds: Vec<CloudObject>,
     pub lights: Vec<Light>,
 }
 
@@ -96,6 +100,9 @@ impl Scene {
                 },
             };
             b = b.union(local.transformed(&o.world_from_object));
+        }
+        for c in &self.clouds {
+            b = b.union(c.cloud.bounds().transformed(&c.world_from_object));
         }
         b
     }
@@ -151,13 +158,29 @@ impl Scene {
         for (i, mesh) in self.meshes.iter().enumerate() {
             self.validate_mesh(i, mesh)?;
         }
-        if self.objects.is_empty() {
+        if self.objects.is_empty() && self.clouds.is_empty() {
             return Err(SceneError::Empty);
         }
         for o in &self.objects {
             self.validate_object(o)?;
         }
+        for c in &self.clouds {
+            self.validate_cloud(c)?;
+        }
         Ok(())
+    }
+
+    fn validate_cloud(&self, c: &CloudObject) -> Result<(), SceneError> {
+        if c.material >= self.materials.len() {
+            return Err(SceneError::invalid(format!("point cloud '{}'", c.name), "material index out of range"));
+        }
+        if !c.world_from_object.is_finite() || c.world_from_object.matrix3.determinant() == 0.0 {
+            return Err(SceneError::invalid(
+                format!("point cloud '{}'", c.name),
+                "transform is not finite and invertible",
+            ));
+        }
+        c.cloud.validate()
     }
 
     fn validate_material(&self, m: &Material) -> Result<(), SceneError> {

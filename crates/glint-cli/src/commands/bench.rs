@@ -32,6 +32,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         BenchCommand::Whitted(a) => whitted(&a),
         BenchCommand::Filters(a) => super::bench_gi::filters(&a),
         BenchCommand::Gi(a) => super::bench_gi::gi(&a),
+        BenchCommand::Points(a) => super::bench_points::run(&a),
     }
 }
 

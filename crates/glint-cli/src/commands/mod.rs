@@ -2,8 +2,10 @@
 
 mod bench;
 mod bench_gi;
+mod bench_points;
 mod compare;
 mod filter;
+mod points;
 mod render;
 mod sky;
 
@@ -18,5 +20,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Some(Command::Sky(s)) => sky::run(s),
         Some(Command::Compare(args)) => compare::run(&args),
         Some(Command::Filter(args)) => filter::run(&args),
+        Some(Command::Points(p)) => points::run(p),
     }
 }

@@ -1,13 +1,15 @@
 //! `glint render`: load, apply command-line overrides, render, write atomically.
 
-use crate::cli::{FilterArg, FilterOptions, FlipArg, GuideArg, ModeArg, RenderArgs, SkyArgs};
+use super::points;
+use crate::cli::{ColourByArg, FilterArg, FilterOptions, FlipArg, GuideArg, ModeArg, RenderArgs, SkyArgs};
 use crate::input::{self, parse_vec3};
 use crate::progress::LazyProgress;
 use anyhow::{Context, Result, bail};
 use glint_filter::{AtrousParams, BilateralParams, Filter, GuideChannels, GuidedParams};
+use glint_formats::points::ColourBy;
 use glint_formats::sky::{FaceTransform, SkyLoadOptions, SkySource, load_sky};
 use glint_image::{PngOptions, ToneMap};
-use glint_render::{PathSettings, RenderSettings, World, render_path};
+use glint_render::{Film, PathSettings, PointFrame, PointRenderer, RenderSettings, World, render_path};
 use glint_scene::{Camera, Fov, RenderMode, Scene, Sky, SkyTransform};
 use std::path::Path;
 use std::time::Duration;
@@ -47,6 +49,12 @@ pub fn apply_overrides(scene: &mut Scene, args: &RenderArgs) -> Result<()> {
         scene.render.max_depth = d;
     }
     let c = &args.camera;
+    // A model or cloud file's view was framed for the default image: refit it to this one.
+    let is_scene_file =
+        args.input.as_deref().is_some_and(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml")));
+    if args.input.is_some() && !is_scene_file && (args.width.is_some() || args.height.is_some()) {
+        scene.camera = glint_formats::default_camera(scene, scene.render.width, scene.render.height);
+    }
     let mut cam: Camera = scene.camera;
     if let Some(e) = &c.eye {
         cam.position = parse_vec3("eye", e)?;
@@ -135,6 +143,7 @@ pub fn mode(args: &RenderArgs, scene: &Scene) -> ModeArg {
     args.mode.unwrap_or(match scene.render.mode {
         RenderMode::Whitted => ModeArg::Whitted,
         RenderMode::Path => ModeArg::Path,
+        RenderMode::Points => ModeArg::Points,
     })
 }
 
@@ -209,7 +218,7 @@ fn path_settings(args: &RenderArgs, scene: &Scene, width: u32) -> Result<PathSet
 
 pub fn run(args: &RenderArgs) -> Result<()> {
     let kind = output_kind(&args.output)?;
-    let tone_map: ToneMap = args
+    let _: ToneMap = args
         .tonemap
         .parse()
         .map_err(|_| anyhow::anyhow!("--tonemap {:?}: use clamp, reinhard or aces", args.tonemap))?;
@@ -217,14 +226,34 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         bail!("--exposure must be a finite number");
     }
     let pool = input::thread_pool(args.threads)?;
-    let mut scene = input::load(args.input.as_deref(), args.quiet)?;
+    let colour_by = match args.points.colour_by {
+        ColourByArg::Auto => ColourBy::Auto,
+        ColourByArg::Rgb => ColourBy::Rgb,
+        ColourByArg::Intensity => ColourBy::Intensity,
+        ColourByArg::Classification => ColourBy::Classification,
+        ColourByArg::Elevation => ColourBy::Elevation,
+    };
+    let mut scene = input::load_with(args.input.as_deref(), colour_by, args.quiet)?;
     apply_overrides(&mut scene, args)?;
     let mut settings = RenderSettings::from_defaults(&scene.render);
     settings.seed = args.seed;
 
-    let path = match mode(args, &scene) {
+    let mode = mode(args, &scene);
+    if mode == ModeArg::Points {
+        return run_points(args, kind, scene, &settings, &pool);
+    }
+    if scene.objects.is_empty() {
+        bail!("the scene holds only point clouds, which --mode points draws (the ray tracers do not see them)");
+    }
+    if !scene.clouds.is_empty() && !args.quiet {
+        eprintln!(
+            "glint: warning: {} point cloud(s) left out: only --mode points draws point clouds",
+            scene.clouds.len()
+        );
+    }
+    let path = match mode {
         ModeArg::Path => Some(path_settings(args, &scene, settings.width)?),
-        ModeArg::Whitted => None,
+        _ => None,
     };
 
     let (film, summary) = pool.install(|| -> Result<_> {
@@ -271,6 +300,14 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         Ok(result)
     })?;
 
+    write_output(args, kind, &film, &summary)
+}
+
+fn write_output(args: &RenderArgs, kind: OutputKind, film: &Film, summary: &str) -> Result<()> {
+    let tone_map: ToneMap = args
+        .tonemap
+        .parse()
+        .map_err(|_| anyhow::anyhow!("--tonemap {:?}: use clamp, reinhard or aces", args.tonemap))?;
     let image = match kind {
         OutputKind::Png => film.beauty_image(args.alpha),
         OutputKind::Exr => film.aov_image(),
@@ -282,6 +319,53 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         eprintln!("glint: {summary} -> {}", args.output.display());
     }
     Ok(())
+}
+
+/// Points mode: prepare the clouds (estimate what they lack), reconstruct and shade them; the
+/// scene's meshes, spheres and planes, if any, are traced Whitted-style and the nearer surface
+/// wins each pixel.
+fn run_points(
+    args: &RenderArgs,
+    kind: OutputKind,
+    mut scene: Scene,
+    settings: &RenderSettings,
+    pool: &rayon::ThreadPool,
+) -> Result<()> {
+    if scene.clouds.is_empty() {
+        bail!("--mode points draws point clouds, and this scene has none (use --mode whitted or path)");
+    }
+    let point_settings = points::point_settings(&args.points, settings.width, settings.height)?;
+    let (film, summary) = pool.install(|| -> Result<_> {
+        points::prepare_clouds(&mut scene, &args.points, args.quiet)?;
+        let start = std::time::Instant::now();
+        let mut renderer = PointRenderer::new(&scene)?;
+        let prepared_ms = start.elapsed().as_secs_f64() * 1e3;
+        let mut frame = PointFrame::default();
+        let stats = renderer.render(&scene, &scene.camera, &point_settings, &mut frame)?;
+        let mut film = frame.to_film();
+        let mut traced = String::new();
+        if !scene.objects.is_empty() {
+            let world = World::new(scene.clone());
+            let (meshes, s) = glint_render::render(&world, settings)?;
+            film.composite_nearer(&meshes);
+            traced = format!(", meshes traced in {:.1} ms", s.elapsed.as_secs_f64() * 1e3);
+        }
+        let summary = format!(
+            "points {}x{} ({} points, fill {:?}) in {:.1} ms: project {:.1} ms, pull-push {:.1} ms, shade {:.1} ms ({:.0} M points/s; layout {:.0} ms{traced})",
+            settings.width,
+            settings.height,
+            stats.points,
+            point_settings.fill,
+            stats.total_ms,
+            stats.project_ms,
+            stats.pull_push_ms,
+            stats.shade_ms,
+            stats.points_per_second() * 1e-6,
+            prepared_ms,
+        );
+        Ok((film, summary))
+    })?;
+    write_output(args, kind, &film, &summary)
 }
 
 pub fn filter_name(f: &Filter) -> String {

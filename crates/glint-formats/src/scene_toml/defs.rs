@@ -189,6 +189,8 @@ pub(crate) enum ObjectKind {
     Sphere,
     Plane,
     Mesh,
+    /// A point cloud file (drawn by the points mode).
+    Points,
 }
 
 /// How a mesh is shaded: with interpolated vertex normals or with its face normals.
@@ -224,6 +226,11 @@ pub(crate) struct ObjectDef {
     pub rotate_axis: Option<Spanned<V3>>,
     pub rotate_angle: Option<Spanned<Num>>,
     pub scale: Option<Spanned<Scale>>,
+    /// Points: how points without colours are coloured (auto, rgb, intensity, classification,
+    /// elevation).
+    pub colour_by: Option<Spanned<String>>,
+    /// Points: the scanner's position, toward which estimated normals are turned.
+    pub sensor: Option<Spanned<V3>>,
 }
 
 fn span_of<T>(v: &Option<Spanned<T>>) -> Option<Span> {
@@ -250,6 +257,8 @@ impl ObjectDef {
             ("rotate_axis", span_of(&self.rotate_axis)),
             ("rotate_angle", span_of(&self.rotate_angle)),
             ("scale", span_of(&self.scale)),
+            ("colour_by", span_of(&self.colour_by)),
+            ("sensor", span_of(&self.sensor)),
         ]
         .into_iter()
         .filter_map(|(k, s)| s.map(|s| (k, s)))

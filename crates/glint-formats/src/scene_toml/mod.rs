@@ -14,6 +14,7 @@ pub(crate) use defs::Shading;
 
 use crate::error::FormatError;
 use crate::model::{self, Model};
+use crate::points::{self, ColourBy, PointReadOptions};
 use crate::sky::{FaceTransform, LoadedSky, SkyLoadOptions, SkySource, load_sky};
 use crate::{Loaded, texture_file};
 use defs::{
@@ -23,8 +24,8 @@ use defs::{
 use glint_core::{Affine3A, Mat3, Rgb, Vec2, Vec3};
 use glint_scene::scene::MAX_IMAGE_SIDE;
 use glint_scene::{
-    Attenuation, Camera, CubeFace, Fov, Light, Material, Mesh, Object, RenderDefaults, RenderMode, Scene, Shape, Sky,
-    Texture, TextureImage,
+    Attenuation, Camera, CloudObject, CubeFace, Fov, Light, Material, Mesh, Object, RenderDefaults, RenderMode, Scene,
+    Shape, Sky, Texture, TextureImage,
 };
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -195,8 +196,11 @@ impl Builder<'_> {
                 r.mode = match m.get_ref().as_str() {
                     "whitted" => RenderMode::Whitted,
                     "path" => RenderMode::Path,
+                    "points" => RenderMode::Points,
                     other => {
-                        return Err(self.err(&m.span(), format!("mode {other:?}: use \"whitted\" or \"path\"")));
+                        return Err(
+                            self.err(&m.span(), format!("mode {other:?}: use \"whitted\", \"path\" or \"points\""))
+                        );
                     }
                 };
             }
@@ -672,6 +676,7 @@ impl Builder<'_> {
                 ObjectKind::Sphere => "sphere",
                 ObjectKind::Plane => "plane",
                 ObjectKind::Mesh => "mesh",
+                ObjectKind::Points => "points",
             };
             format!("object {index} ({k})")
         });
@@ -769,6 +774,50 @@ impl Builder<'_> {
                         world_from_object,
                     });
                 }
+            }
+            ObjectKind::Points => {
+                let allowed: Vec<&str> = ["path", "colour_by", "sensor"].into_iter().chain(TRANSFORM).collect();
+                self.disallow(&keys, &allowed, "a point cloud")?;
+                let Some(path) = &def.path else {
+                    return Err(self.missing(
+                        &o.span(),
+                        format!("point cloud '{name}' needs `path` (a .ply, .las, .laz, .xyz or .pts file)"),
+                    ));
+                };
+                let colour_by = match &def.colour_by {
+                    Some(c) => match colour_by_name(c.get_ref()) {
+                        Some(v) => v,
+                        None => {
+                            return Err(self.err(
+                                &c.span(),
+                                format!(
+                                    "colour_by {:?}: use auto, rgb, intensity, classification or elevation",
+                                    c.get_ref()
+                                ),
+                            ));
+                        }
+                    },
+                    None => ColourBy::Auto,
+                };
+                let file = self.resolve(path)?;
+                let mut cloud = points::read_point_cloud(&file, &PointReadOptions { colour_by })?;
+                if let Some(s) = &def.sensor {
+                    if cloud.normals.is_some() {
+                        return Err(
+                            self.err(&s.span(), "`sensor` orients estimated normals, but this cloud has its own")
+                        );
+                    }
+                    // The sensor is given in the cloud's own (file) coordinates.
+                    let origin = cloud.origin;
+                    let p = s.get_ref().0.as_dvec3() - origin;
+                    cloud.orientation = glint_scene::Orientation::TowardSensor(p.as_vec3());
+                }
+                let world_from_object = self.transform(def)?;
+                let material = match material {
+                    Some(m) => m,
+                    None => self.default_material(),
+                };
+                self.scene.clouds.push(CloudObject { name, cloud: Arc::new(cloud), material, world_from_object });
             }
         }
         Ok(())
@@ -931,3 +980,15 @@ impl Builder<'_> {
 
 #[cfg(test)]
 mod tests;
+
+/// The `colour_by` names of the scene format (and the command line).
+pub(crate) fn colour_by_name(name: &str) -> Option<ColourBy> {
+    Some(match name {
+        "auto" => ColourBy::Auto,
+        "rgb" => ColourBy::Rgb,
+        "intensity" => ColourBy::Intensity,
+        "classification" => ColourBy::Classification,
+        "elevation" => ColourBy::Elevation,
+        _ => return None,
+    })
+}

@@ -1,6 +1,12 @@
 //! Point clouds (DESIGN.md §3): positions with optional normals, radii and colours, in
 //! structure-of-arrays form (the projection pass reads positions alone).
 
+pub mod estimate;
+pub mod sample;
+
+pub use estimate::{EstimateSettings, estimate_normals, estimate_radii, prepare};
+pub use sample::sample_mesh;
+
 use crate::SceneError;
 use glint_core::glam::DVec3;
 use glint_core::{Bounds3, Rgb, Vec3};

@@ -1,0 +1,139 @@
+//! `glint bench points`: the point-rendering paper's table 1 on this machine (DESIGN.md §3).
+//!
+//! Each cloud is loaded, prepared (normals and radii estimated where the file has none), laid
+//! out once, then drawn `reps` times from its default view; the median frame is reported with
+//! its split into projection, pull-push and shading. A frame is validated before it is timed:
+//! it must cover some pixels and hold no NaN.
+
+use super::bench::median;
+use crate::cli::{BenchPointsArgs, PointArgs};
+use crate::input;
+use anyhow::{Context, Result, bail};
+use glint_formats::points::PointReadOptions;
+use glint_render::{Fill, PointFrame, PointRenderer, PointSettings, PointStats};
+use glint_scene::Scene;
+use std::io::Write;
+use std::path::Path;
+
+macro_rules! out {
+    ($($arg:tt)*) => {
+        writeln!(std::io::stdout(), $($arg)*).context("cannot write to standard output")?
+    };
+}
+
+/// The benchmark's clouds: name, how to make it.
+const CLOUDS: [&str; 5] = ["bunny", "dragon", "autzen", "sampled-1m", "sampled-5m"];
+
+fn load_cloud(name: &str, data: &Path) -> Result<Scene> {
+    let file = |rel: &str| data.join(rel);
+    let read = |path: &Path| -> Result<Scene> {
+        let loaded = glint_formats::load_with(path, &PointReadOptions::default())
+            .with_context(|| format!("cannot load {} (use --data DIR)", path.display()))?;
+        Ok(loaded.scene)
+    };
+    let sampled = |count: usize| -> Result<Scene> {
+        let mesh_path = file("meshes/stanford_dragon_100k.ply");
+        let (meshes, _, _) = glint_formats::load_mesh(&mesh_path)
+            .with_context(|| format!("cannot load {} (use --data DIR)", mesh_path.display()))?;
+        let mesh = meshes.into_iter().next().context("the dragon mesh is empty")?;
+        let mut cloud = glint_scene::sample_mesh(&mesh, count, 1)?;
+        cloud.name = format!("dragon sampled {}M", count / 1_000_000);
+        Ok(glint_formats::scene_for_cloud(cloud))
+    };
+    match name {
+        "bunny" => read(&file("pointclouds/stanford_bunny_rawscan_40256.xyz")),
+        "dragon" => read(&file("pointclouds/stanford_dragon_rawscan_41841.xyz")),
+        "autzen" => read(&file("pointclouds/autzen_trim.las")),
+        "sampled-1m" => sampled(1_000_000),
+        "sampled-5m" => sampled(5_000_000),
+        other => bail!("--clouds: unknown cloud {other:?} (use {})", CLOUDS.join(", ")),
+    }
+}
+
+fn parse_fill(name: &str) -> Result<Fill> {
+    Ok(match name {
+        "full" => Fill::Ellipses,
+        "pull-push" => Fill::PullPush,
+        "raw" => Fill::Raw,
+        "squares" => Fill::Squares,
+        other => bail!("--fills: unknown fill {other:?} (use full, pull-push, raw, squares)"),
+    })
+}
+
+pub fn run(args: &BenchPointsArgs) -> Result<()> {
+    if args.reps == 0 || args.reps > 10_000 {
+        bail!("--reps {}: must be 1..=10000", args.reps);
+    }
+    let names: Vec<String> = match &args.clouds {
+        Some(list) => list.split(',').map(|s| s.trim().to_string()).collect(),
+        None => CLOUDS.iter().map(|s| s.to_string()).collect(),
+    };
+    let sizes: Vec<u32> = args
+        .sizes
+        .split(',')
+        .map(|s| s.trim().parse::<u32>().with_context(|| format!("--sizes: {s:?} is not a number")))
+        .collect::<Result<_>>()?;
+    let fills: Vec<Fill> = args.fills.split(',').map(|s| parse_fill(s.trim())).collect::<Result<_>>()?;
+    if let Some(dir) = &args.images {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    let pool = input::thread_pool(args.threads)?;
+    pool.install(|| -> Result<()> {
+        out!("threads: {}, reps: {} (medians)", rayon::current_num_threads(), args.reps);
+        out!("| cloud | points | image | fill | frame ms | fps | project ms | pull-push ms | shade ms | M points/s | projection M points/s | coverage |");
+        out!("|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+        for name in &names {
+            let mut scene = load_cloud(name, &args.data)?;
+            super::points::prepare_clouds(&mut scene, &PointArgs { neighbours: 16, radius_scale: 1.0, ..PointArgs::default() }, true)?;
+            let mut renderer = PointRenderer::new(&scene)?;
+            for &side in &sizes {
+                for &fill in &fills {
+                    let settings = PointSettings { fill, ..PointSettings::new(side, side) };
+                    settings.validate()?;
+                    // Square images: the default view refitted.
+                    let camera = glint_formats::default_camera(&scene, side, side);
+                    let mut frame = PointFrame::default();
+                    let first = renderer.render(&scene, &camera, &settings, &mut frame)?;
+                    let coverage = frame.coverage();
+                    if coverage < 0.01 || frame.colour.iter().any(|c| !c.is_finite()) {
+                        bail!("{name} at {side}²: the frame is empty or holds NaN: not timed");
+                    }
+                    if let Some(dir) = &args.images {
+                        let path = dir.join(format!("{name}-{side}-{}.png", fill_name(fill)));
+                        let image = frame.to_film().beauty_image(false);
+                        glint_image::write_image(&path, &image, &glint_image::PngOptions::default())?;
+                    }
+                    let mut runs: Vec<PointStats> = vec![first];
+                    for _ in 1..args.reps {
+                        runs.push(renderer.render(&scene, &camera, &settings, &mut frame)?);
+                    }
+                    let med = |f: fn(&PointStats) -> f64| median(&mut runs.iter().map(f).collect::<Vec<_>>());
+                    let total = med(|s| s.total_ms);
+                    let project = med(|s| s.project_ms);
+                    let points = renderer.points().len() as f64;
+                    out!(
+                        "| {name} | {} | {side}² | {} | {total:.2} | {:.1} | {project:.2} | {:.2} | {:.2} | {:.1} | {:.0} | {:.3} |",
+                        renderer.points().len(),
+                        fill_name(fill),
+                        1e3 / total,
+                        med(|s| s.pull_push_ms),
+                        med(|s| s.shade_ms),
+                        points / total * 1e-3,
+                        points / project * 1e-3,
+                        coverage
+                    );
+                }
+            }
+        }
+        Ok(())
+    })
+}
+
+fn fill_name(fill: Fill) -> &'static str {
+    match fill {
+        Fill::Ellipses => "full",
+        Fill::PullPush => "pull-push",
+        Fill::Raw => "raw",
+        Fill::Squares => "squares",
+    }
+}

@@ -1,0 +1,373 @@
+//! Points mode (DESIGN.md §3): point clouds drawn as closed surfaces by image-space
+//! reconstruction (Marroquim, Kraus and Cavalcanti, "Efficient point-based rendering using
+//! image reconstruction", PBG 2007).
+//!
+//! One frame: project every point to one pixel (`project.rs`: parallel scatter, packed atomic
+//! depth test) → pull-push with depth intervals and elliptical box filters (`pyramid.rs`) →
+//! a G-buffer of depth, normal, albedo and material (the AOVs) → deferred Phong shading with the
+//! scene's lights and the sky's irradiance, the sky behind (`shade.rs`). O(n + m) for n points
+//! and m pixels. The same pyramid gives the ablations (raw points, pull-push without ellipses)
+//! and a fixed-size square splatting baseline; eye-dome lighting shades clouds without normals.
+//!
+//! Level 0 of the pyramid is the depth buffer itself: a pixel's attributes are read from the
+//! winning point when needed (by the pull into level 1 and by the final push), so the finest
+//! level is never copied.
+
+mod prepared;
+mod project;
+mod pyramid;
+mod shade;
+#[cfg(test)]
+mod tests;
+mod view;
+
+pub use prepared::{MAX_POINTS, PreparedPoints};
+pub use pyramid::{Level, Texel, ellipse_contains, interpolate, pull_texel, push_texel};
+pub use view::View;
+
+use crate::{Film, FilmPixel, RenderError};
+use glint_core::{Rgb, Vec2, Vec3};
+use glint_scene::sky::IrradianceSh;
+use glint_scene::{Camera, Scene};
+use project::EMPTY;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+use view::{CloudView, cloud_for, cloud_views};
+
+/// How the holes between projected points are filled (the ablations of BENCHMARKS.md).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Fill {
+    /// One pixel per point, nothing filled.
+    Raw,
+    /// Pull-push with depth intervals, without the elliptical box filters.
+    PullPush,
+    /// The full method: pull-push with depth intervals and elliptical box filters.
+    #[default]
+    Ellipses,
+    /// The baseline of common point viewers: every point a fixed square of pixels, no fill.
+    Squares,
+}
+
+/// How reconstructed pixels are lit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum PointShading {
+    /// Phong where every cloud has normals, eye-dome lighting otherwise.
+    #[default]
+    Auto,
+    /// Deferred Phong with the scene's lights and the sky's irradiance as ambient light.
+    Phong,
+    /// Eye-dome lighting (Boucheny 2009): the colour darkened where the depth steps away from
+    /// the neighbours; needs no normals.
+    EyeDome,
+    /// The points' colours as they are.
+    Flat,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointSettings {
+    pub width: u32,
+    pub height: u32,
+    pub fill: Fill,
+    pub shading: PointShading,
+    /// Side of the squares in pixels for [`Fill::Squares`].
+    pub square_side: u32,
+    /// Eye-dome lighting strength (1 = default).
+    pub edl_strength: f32,
+    /// Cull back faces of clouds whose normals are oriented.
+    pub cull: bool,
+}
+
+impl PointSettings {
+    pub fn new(width: u32, height: u32) -> Self {
+        Self {
+            width,
+            height,
+            fill: Fill::Ellipses,
+            shading: PointShading::Auto,
+            square_side: 3,
+            edl_strength: 1.0,
+            cull: true,
+        }
+    }
+
+    pub fn validate(&self) -> Result<(), RenderError> {
+        if !glint_scene::scene::image_size_ok(self.width, self.height) {
+            return Err(RenderError::InvalidSetting(format!("image size {}x{}", self.width, self.height)));
+        }
+        if !(1..=15).contains(&self.square_side) {
+            return Err(RenderError::InvalidSetting(format!(
+                "square side {} pixels (must be 1..=15)",
+                self.square_side
+            )));
+        }
+        if !(self.edl_strength.is_finite() && self.edl_strength >= 0.0) {
+            return Err(RenderError::InvalidSetting("eye-dome strength must be a finite number >= 0".into()));
+        }
+        Ok(())
+    }
+}
+
+/// Where one frame's time went, and how much it drew.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PointStats {
+    pub points: u64,
+    /// Pixels a point won.
+    pub projected_pixels: u64,
+    pub clear_ms: f64,
+    pub project_ms: f64,
+    /// Pull and push, down to the G-buffer.
+    pub pull_push_ms: f64,
+    pub shade_ms: f64,
+    pub total_ms: f64,
+}
+
+impl PointStats {
+    pub fn points_per_second(&self) -> f64 {
+        self.points as f64 / (self.total_ms * 1e-3)
+    }
+}
+
+/// The reconstructed surface per pixel (the AOVs) and the shaded colour.
+#[derive(Clone, Debug, Default)]
+pub struct PointFrame {
+    pub width: u32,
+    pub height: u32,
+    /// Linear eye depth; +inf where no surface.
+    pub depth: Vec<f32>,
+    /// World-space unit normal facing the camera; zero where no surface.
+    pub normal: Vec<Vec3>,
+    pub albedo: Vec<Rgb>,
+    /// Material index; `u32::MAX` where no surface.
+    pub material: Vec<u32>,
+    pub colour: Vec<Rgb>,
+}
+
+impl PointFrame {
+    fn resize(&mut self, width: u32, height: u32) {
+        let n = width as usize * height as usize;
+        self.width = width;
+        self.height = height;
+        self.depth.resize(n, f32::INFINITY);
+        self.normal.resize(n, Vec3::ZERO);
+        self.albedo.resize(n, Rgb::ZERO);
+        self.material.resize(n, u32::MAX);
+        self.colour.resize(n, Rgb::ZERO);
+    }
+
+    /// Fraction of pixels covered by a surface.
+    pub fn coverage(&self) -> f64 {
+        self.depth.iter().filter(|d| d.is_finite()).count() as f64 / self.depth.len().max(1) as f64
+    }
+
+    /// The frame as a film: beauty, and the AOVs (normal, depth, albedo, coverage = alpha).
+    pub fn to_film(&self) -> Film {
+        let mut film = Film::new(self.width, self.height);
+        for (i, p) in film.pixels.iter_mut().enumerate() {
+            let hit = self.depth[i].is_finite();
+            *p = FilmPixel {
+                colour: self.colour[i],
+                normal: self.normal[i],
+                albedo: self.albedo[i],
+                depth: self.depth[i],
+                coverage: if hit { 1.0 } else { 0.0 },
+                ..FilmPixel::default()
+            };
+        }
+        film
+    }
+}
+
+/// Draws a scene's point clouds; keeps its buffers from frame to frame.
+pub struct PointRenderer {
+    points: PreparedPoints,
+    depth: Vec<AtomicU64>,
+    levels: Vec<pyramid::Level>,
+    sky_irradiance: Option<IrradianceSh>,
+    every_cloud_has_normals: bool,
+}
+
+impl PointRenderer {
+    /// Lay out the scene's clouds for drawing (Morton order, packed normals).
+    pub fn new(scene: &Scene) -> Result<Self, RenderError> {
+        let points = PreparedPoints::new(scene)?;
+        Ok(Self {
+            every_cloud_has_normals: points.clouds.iter().all(|c| c.has_normals),
+            points,
+            depth: Vec::new(),
+            levels: Vec::new(),
+            sky_irradiance: scene.sky_ambient.then(|| scene.sky.irradiance_sh()),
+        })
+    }
+
+    pub fn points(&self) -> &PreparedPoints {
+        &self.points
+    }
+
+    /// Draw the clouds of `scene` (the one this renderer was made from) seen by `camera`.
+    pub fn render(
+        &mut self,
+        scene: &Scene,
+        camera: &Camera,
+        settings: &PointSettings,
+        frame: &mut PointFrame,
+    ) -> Result<PointStats, RenderError> {
+        settings.validate()?;
+        let start = Instant::now();
+        let (w, h) = (settings.width, settings.height);
+        let view = View::new(camera, w, h);
+        let clouds = cloud_views(&self.points, &view, settings.cull);
+        frame.resize(w, h);
+
+        let n = w as usize * h as usize;
+        if self.depth.len() != n {
+            self.depth = (0..n).map(|_| AtomicU64::new(EMPTY)).collect();
+        } else {
+            self.depth.par_chunks(1 << 14).for_each(|c| c.iter().for_each(|d| d.store(EMPTY, Ordering::Relaxed)));
+        }
+        let t_clear = Instant::now();
+
+        let side = if settings.fill == Fill::Squares { settings.square_side } else { 1 };
+        if !clouds.is_empty() {
+            project::project(&self.points, &clouds, &view, &self.depth, side);
+        }
+        let t_project = Instant::now();
+
+        self.reconstruct(&view, &clouds, settings.fill, frame);
+        let t_pull_push = Instant::now();
+
+        let shading = match settings.shading {
+            PointShading::Auto if self.every_cloud_has_normals => PointShading::Phong,
+            PointShading::Auto => PointShading::EyeDome,
+            s => s,
+        };
+        shade::shade(scene, &view, self.sky_irradiance.as_ref(), shading, settings.edl_strength, frame);
+        let t_shade = Instant::now();
+
+        let ms = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e3;
+        let projected = self.depth.par_iter().filter(|d| d.load(Ordering::Relaxed) != EMPTY).count();
+        Ok(PointStats {
+            points: self.points.len() as u64,
+            projected_pixels: projected as u64,
+            clear_ms: ms(start, t_clear),
+            project_ms: ms(t_clear, t_project),
+            pull_push_ms: ms(t_project, t_pull_push),
+            shade_ms: ms(t_pull_push, t_shade),
+            total_ms: ms(start, t_shade),
+        })
+    }
+
+    /// Level-0 texel of pixel (x, y): the point that won it, or invalid.
+    #[inline]
+    fn level0(&self, view: &View, clouds: &[CloudView], x: i64, y: i64) -> Texel {
+        if x < 0 || y < 0 || x >= i64::from(view.width) || y >= i64::from(view.height) {
+            return Texel::INVALID;
+        }
+        let word = self.depth[y as usize * view.width as usize + x as usize].load(Ordering::Relaxed);
+        if word == EMPTY {
+            return Texel::INVALID;
+        }
+        let (z, index) = project::unpack(word);
+        let cv = cloud_for(clouds, index);
+        let i = index as usize;
+        let r = self.points.radius[i] * cv.radius_scale;
+        let ray = view.camera_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+        let mut normal = if cv.has_normals {
+            (cv.camera_normal_from_object * prepared::decode_octahedral_direction(self.points.stream[i].normal))
+                .normalize_or(Vec3::NEG_Z)
+        } else {
+            -ray.normalize()
+        };
+        // Face the camera: unoriented normals have no reliable sign, and a two-sided cloud
+        // shows its back faces lit like its front.
+        if normal.dot(ray) > 0.0 {
+            normal = -normal;
+        }
+        Texel {
+            z_min: z,
+            z_max: z + r,
+            depth: z,
+            normal,
+            radius: r * view.focal / z,
+            colour: self.points.colour[i],
+            displacement: Vec2::ZERO,
+            material: cv.material,
+        }
+    }
+
+    /// Pull-push (per `fill`) down to the G-buffer in `frame`.
+    fn reconstruct(&mut self, view: &View, clouds: &[CloudView], fill: Fill, frame: &mut PointFrame) {
+        let pyramid = matches!(fill, Fill::PullPush | Fill::Ellipses);
+        let ellipses = fill == Fill::Ellipses;
+        let count = if pyramid { pyramid::level_count(view.width, view.height) } else { 0 };
+        // Take the levels out of self so that level 0 (read through self) and the levels can
+        // be borrowed at once.
+        let mut levels = std::mem::take(&mut self.levels);
+        levels.resize_with(count, pyramid::Level::default);
+        let (mut w, mut h) = (view.width, view.height);
+        for level in levels.iter_mut() {
+            w = w.div_ceil(2);
+            h = h.div_ceil(2);
+            level.resize(w, h);
+        }
+        if count > 0 {
+            pyramid::pull_level(|x, y| self.level0(view, clouds, x, y), &mut levels[0]);
+            for k in 1..count {
+                let (fine, coarse) = levels.split_at_mut(k);
+                let fine = &fine[k - 1];
+                pyramid::pull_level(|x, y| fine.at(x, y), &mut coarse[0]);
+            }
+            for k in (1..count).rev() {
+                let (fine, coarse) = levels.split_at_mut(k);
+                pyramid::push_level(&coarse[0], &mut fine[k - 1], ellipses);
+            }
+        }
+        let width = view.width as usize;
+        let level1 = levels.first();
+        let this = &*self;
+        frame
+            .depth
+            .par_chunks_mut(width)
+            .zip(frame.normal.par_chunks_mut(width))
+            .zip(frame.albedo.par_chunks_mut(width))
+            .zip(frame.material.par_chunks_mut(width))
+            .enumerate()
+            .with_min_len(4)
+            .for_each(|(y, (((depth, normal), albedo), material))| {
+                let rows = level1.map(|l1| pyramid::CoarseRows::new(l1, y as i64));
+                for x in 0..width {
+                    let own = this.level0(view, clouds, x as i64, y as i64);
+                    let t = match &rows {
+                        Some(rows) => rows.push(x as i64, y as i64, &own, ellipses).unwrap_or(own),
+                        None => own,
+                    };
+                    if t.is_valid() {
+                        depth[x] = t.depth;
+                        normal[x] = view.to_world(t.normal).normalize_or(-view.forward);
+                        albedo[x] = t.colour;
+                        material[x] = t.material;
+                    } else {
+                        depth[x] = f32::INFINITY;
+                        normal[x] = Vec3::ZERO;
+                        albedo[x] = Rgb::ZERO;
+                        material[x] = u32::MAX;
+                    }
+                }
+            });
+        self.levels = levels;
+    }
+
+    /// The pyramid levels above level 0 after the last frame (for tests and figures).
+    pub fn levels(&self) -> &[pyramid::Level] {
+        &self.levels
+    }
+}
+
+/// One frame of `scene`'s point clouds with its own camera: the convenience entry point of the
+/// CLI.
+pub fn render_points(scene: &Scene, settings: &PointSettings) -> Result<(PointFrame, PointStats), RenderError> {
+    let mut renderer = PointRenderer::new(scene)?;
+    let mut frame = PointFrame::default();
+    let stats = renderer.render(scene, &scene.camera, settings, &mut frame)?;
+    Ok((frame, stats))
+}

@@ -1,0 +1,472 @@
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use super::project::{EMPTY, pixel_of};
+use super::*;
+use glint_core::{Affine3A, Vec3};
+use glint_scene::{CloudObject, Fov, Light, Material, Orientation, PointCloud, Sky};
+use std::sync::Arc;
+
+/// A camera at the origin looking along −Z with a 90° vertical field of view: at depth z, one
+/// pixel of an N-pixel-high image spans 2z / N world units.
+fn camera() -> Camera {
+    Camera { position: Vec3::ZERO, forward: Vec3::NEG_Z, up: Vec3::Y, fov: Fov::Vertical(90.0) }
+}
+
+fn scene_of(clouds: Vec<PointCloud>) -> Scene {
+    Scene {
+        camera: camera(),
+        sky: Sky::Colour(Rgb::new(0.1, 0.2, 0.3)),
+        ambient: Rgb::splat(0.2),
+        materials: vec![Material::default()],
+        lights: vec![Light::Directional { direction: Vec3::new(0.0, 0.0, -1.0), colour: Rgb::ONE, intensity: 1.0 }],
+        clouds: clouds
+            .into_iter()
+            .map(|c| CloudObject {
+                name: c.name.clone(),
+                cloud: Arc::new(c),
+                material: 0,
+                world_from_object: Affine3A::IDENTITY,
+            })
+            .collect(),
+        ..Scene::default()
+    }
+}
+
+/// Points on the plane z = −`depth` (normal +Z, facing the camera), on a grid of `spacing`
+/// world units over [−half, half]², each of radius `radius`, minus those `keep` rejects.
+fn plane(depth: f32, half: f32, spacing: f32, radius: f32, keep: impl Fn(f32, f32, usize) -> bool) -> PointCloud {
+    let n = (2.0 * half / spacing).round() as i32;
+    let mut positions = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, y) = (-half + i as f32 * spacing, -half + j as f32 * spacing);
+            if keep(x, y, (j * (n + 1) + i) as usize) {
+                positions.push(Vec3::new(x, y, -depth));
+            }
+        }
+    }
+    let count = positions.len();
+    PointCloud {
+        name: "plane".into(),
+        positions,
+        normals: Some(vec![Vec3::Z; count]),
+        radii: Some(vec![radius; count]),
+        colours: None,
+        orientation: Orientation::Oriented,
+        ..PointCloud::default()
+    }
+}
+
+fn render(scene: &Scene, size: u32, fill: Fill) -> (PointFrame, PointRenderer) {
+    let mut r = PointRenderer::new(scene).unwrap();
+    let mut frame = PointFrame::default();
+    let settings = PointSettings { fill, ..PointSettings::new(size, size) };
+    r.render(scene, &scene.camera, &settings, &mut frame).unwrap();
+    (frame, r)
+}
+
+/// A cheap deterministic "random" keep/drop per point.
+fn hash01(i: usize) -> f32 {
+    glint_core::random::unit_float(glint_core::random::hash4(i as u64, 0, 0, 11))
+}
+
+#[test]
+fn a_plane_with_holes_is_filled_with_its_depth_and_normal() {
+    // 128² pixels; the plane at depth 4 spans [−2, 2]² = the middle half of the image (64 px);
+    // points every 4 pixels (spacing 0.25), radius 1.25 spacings, a quarter of them missing.
+    let cloud = plane(4.0, 2.0, 0.25, 0.3125, |_, _, i| hash01(i) > 0.25);
+    // Each point's pixel position (16 px per world unit at depth 4).
+    let centres: Vec<Vec2> = cloud.positions.iter().map(|p| Vec2::new(64.0 + 16.0 * p.x, 64.0 - 16.0 * p.y)).collect();
+    let scene = scene_of(vec![cloud]);
+    for fill in [Fill::Ellipses, Fill::PullPush] {
+        let (frame, _) = render(&scene, 128, fill);
+        let mut checked = 0;
+        for y in 36..92 {
+            for x in 36..92 {
+                let i = y * 128 + x;
+                // Pixels well inside some point's disc (radius 5 px) must be filled; the
+                // random removals leave a few spots no disc covers, which stay open.
+                let q = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+                let nearest = centres.iter().map(|c| c.distance(q)).fold(f32::INFINITY, f32::min);
+                if nearest > 5.0 - 1.5 {
+                    continue;
+                }
+                assert!(frame.depth[i].is_finite(), "{fill:?}: hole at ({x}, {y})");
+                assert!((frame.depth[i] - 4.0).abs() < 1e-4, "{fill:?}: depth {} at ({x}, {y})", frame.depth[i]);
+                assert!(frame.normal[i].dot(Vec3::Z) > 0.9999, "{fill:?}: normal {} at ({x}, {y})", frame.normal[i]);
+                checked += 1;
+            }
+        }
+        assert!(checked > 56 * 56 * 8 / 10, "{checked} pixels checked");
+        // Outside the plane (beyond its discs) the sky stays; without ellipses the fill
+        // spreads over the whole image (the classic pull-push).
+        assert_eq!(frame.depth[5 * 128 + 5].is_finite(), fill == Fill::PullPush);
+        if fill == Fill::Ellipses {
+            assert_eq!(frame.colour[5 * 128 + 5], Rgb::new(0.1, 0.2, 0.3));
+        }
+    }
+    // Raw points leave the holes: the check above can fail.
+    let (raw, _) = render(&scene, 128, Fill::Raw);
+    let holes = (36..92).flat_map(|y| (36..92).map(move |x| y * 128 + x)).filter(|&i| !raw.depth[i].is_finite());
+    assert!(holes.count() > 56 * 56 / 2);
+}
+
+#[test]
+fn a_tilted_plane_is_filled_with_interpolated_depth() {
+    // The plane through (0, 0, −4) with normal (0, sin 30°, cos 30°): depth varies down the image.
+    let tilt = Affine3A::from_translation(Vec3::new(0.0, 0.0, -4.0))
+        * Affine3A::from_rotation_x(-30f32.to_radians())
+        * Affine3A::from_translation(Vec3::new(0.0, 0.0, 4.0));
+    let mut scene = scene_of(vec![plane(4.0, 1.5, 0.2, 0.25, |_, _, _| true)]);
+    scene.clouds[0].world_from_object = tilt;
+    let (frame, _) = render(&scene, 128, Fill::Ellipses);
+    let n = tilt.transform_vector3(Vec3::Z);
+    let view = View::new(&scene.camera, 128, 128);
+    let mut worst = 0.0f32;
+    for y in 48..80 {
+        for x in 44..84 {
+            let i = y * 128 + x;
+            assert!(frame.depth[i].is_finite(), "hole at ({x}, {y})");
+            // Exact depth where the pixel's centre ray meets the plane.
+            let dir = view.ray_at_depth_one(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+            let z = Vec3::new(0.0, 0.0, -4.0).dot(n) / dir.dot(n);
+            worst = worst.max((frame.depth[i] - z).abs());
+            assert!(frame.normal[i].dot(n) > 0.999, "normal {} at ({x}, {y})", frame.normal[i]);
+        }
+    }
+    // Within a quarter of the point spacing along the view axis.
+    assert!(worst < 0.05, "worst depth error {worst}");
+}
+
+#[test]
+fn gaps_in_a_front_surface_are_filled_from_it_not_from_the_surface_behind() {
+    // Front plane at depth 4, sparse (every 4 px); back plane at depth 8, one point per pixel.
+    let front = plane(4.0, 2.0, 0.25, 0.3125, |_, _, _| true);
+    // A real hole in the front surface, wider than its discs: the back plane must show there.
+    let front =
+        PointCloud { positions: front.positions.iter().copied().filter(|p| p.x.hypot(p.y) > 0.75).collect(), ..front };
+    let count = front.positions.len();
+    let front = PointCloud { normals: Some(vec![Vec3::Z; count]), radii: Some(vec![0.3125; count]), ..front };
+    let back = plane(8.0, 4.0, 0.0625, 0.09, |_, _, _| true);
+    let scene = scene_of(vec![front, back]);
+    let (raw, _) = render(&scene, 128, Fill::Raw);
+    let (full, _) = render(&scene, 128, Fill::Ellipses);
+    let mut back_through_gaps = 0;
+    for y in 36..92i32 {
+        for x in 36..92i32 {
+            let i = (y * 128 + x) as usize;
+            // The pixel's distance from the image centre in world units at depth 4.
+            let r = Vec2::new(x as f32 + 0.5 - 64.0, y as f32 + 0.5 - 64.0).length() / 16.0;
+            if raw.depth[i] > 6.0 {
+                back_through_gaps += 1;
+            }
+            if r > 0.75 + 0.3125 + 0.1 {
+                assert!((full.depth[i] - 4.0).abs() < 1e-4, "({x}, {y}) shows depth {}", full.depth[i]);
+            } else if r < 0.75 - 0.3125 - 0.1 {
+                assert!((full.depth[i] - 8.0).abs() < 1e-4, "hole at ({x}, {y}) shows depth {}", full.depth[i]);
+            }
+        }
+    }
+    assert!(back_through_gaps > 1000, "the raw points must show the back plane through the gaps");
+}
+
+#[test]
+fn silhouettes_stop_at_the_ellipses() {
+    // A disc of points of radius 1 (16 px at depth 4), spacing 0.25 (4 px), point radius 0.3125.
+    let disc = plane(4.0, 1.0, 0.25, 0.3125, |x, y, _| x.hypot(y) <= 1.0 + 1e-4);
+    let scene = scene_of(vec![disc]);
+    let reach = |frame: &PointFrame| {
+        let mut far = 0.0f32;
+        for y in 0..128 {
+            for x in 0..128 {
+                if frame.depth[y * 128 + x].is_finite() {
+                    far = far.max(Vec2::new(x as f32 + 0.5 - 64.0, y as f32 + 0.5 - 64.0).length());
+                }
+            }
+        }
+        far
+    };
+    let (full, _) = render(&scene, 128, Fill::Ellipses);
+    let (plain, _) = render(&scene, 128, Fill::PullPush);
+    // Pixels: the disc's edge (16) plus a point's radius (5) plus the pixel's half-diagonal.
+    let limit = 16.0 + 5.0 + 0.75;
+    assert!(reach(&full) <= limit, "ellipses: coverage reaches {} px", reach(&full));
+    assert!(reach(&full) >= 16.0, "the disc itself is covered");
+    assert!(reach(&plain) > limit + 2.0, "without ellipses the fill bleeds: {} px", reach(&plain));
+}
+
+#[test]
+fn displacement_vectors_point_at_the_true_centre_after_several_levels() {
+    // Two points on pixels (5, 9) and (6, 12) of a 32² image: every level's texel holding both
+    // must place its ellipse centre at their mean pixel centre.
+    let view = View::new(&camera(), 32, 32);
+    let world_at = |px: f32, py: f32| {
+        let d = view.ray_at_depth_one(Vec2::new(px, py));
+        d * 4.0
+    };
+    let positions = vec![world_at(5.5, 9.5), world_at(6.5, 12.5)];
+    let cloud = PointCloud {
+        name: "two".into(),
+        positions,
+        normals: Some(vec![Vec3::Z; 2]),
+        radii: Some(vec![0.01; 2]),
+        orientation: Orientation::Oriented,
+        ..PointCloud::default()
+    };
+    let scene = scene_of(vec![cloud]);
+    let (_, r) = render(&scene, 32, Fill::Ellipses);
+    let levels = r.levels();
+    assert_eq!(levels.len(), 5);
+    let mut found = 0;
+    for (k, level) in levels.iter().enumerate() {
+        let scale = (1 << (k + 1)) as f32;
+        for y in 0..level.height as i64 {
+            for x in 0..level.width as i64 {
+                let t = level.at(x, y);
+                if !t.is_valid() {
+                    continue;
+                }
+                let centre = (Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + t.displacement) * scale;
+                // Level k+1 holds both points from the level where (9..12 >> k+1) meet.
+                let both = (9 >> (k + 1)) == (12 >> (k + 1)) && (5 >> (k + 1)) == (6 >> (k + 1));
+                let expect = if both {
+                    Vec2::new(6.0, 11.0)
+                } else if y == 9 >> (k + 1) {
+                    Vec2::new(5.5, 9.5)
+                } else {
+                    Vec2::new(6.5, 12.5)
+                };
+                // Texels filled by the push carry interpolated centres; the pulled ones are exact.
+                if t.z_min == 4.0 {
+                    assert!((centre - expect).length() < 1e-4, "level {} texel ({x}, {y}): {centre}", k + 1);
+                    found += 1;
+                }
+            }
+        }
+    }
+    assert!(found >= 5, "{found} texels checked");
+}
+
+#[test]
+fn renormalisation_matches_the_papers_example() {
+    // Fine pixel (1, 1): parent (0, 0) weighs 9, (1, 0) and (0, 1) 3 each, (1, 1) 1. Leave out
+    // (1, 0): the rest weigh 9/13, 3/13 and 1/13.
+    let texel = |colour: Rgb| Texel {
+        z_min: 1.0,
+        z_max: 1.5,
+        depth: 1.0,
+        normal: Vec3::NEG_Z,
+        radius: 10.0,
+        colour,
+        displacement: Vec2::ZERO,
+        material: 0,
+    };
+    let coarse = Level {
+        width: 2,
+        height: 2,
+        texels: vec![
+            texel(Rgb::new(1.0, 0.0, 0.0)),
+            Texel::INVALID,
+            texel(Rgb::new(0.0, 1.0, 0.0)),
+            texel(Rgb::new(0.0, 0.0, 1.0)),
+        ],
+    };
+    let t = interpolate(&coarse, 1, 1, true).unwrap();
+    let expect = Rgb::new(9.0, 3.0, 1.0) / 13.0;
+    assert!((t.colour - expect).abs().max_element() < 1e-6, "{}", t.colour);
+    // The three contributors of DESIGN.md: weights 1, 3, 9 → 1/13, 3/13, 9/13.
+    assert!((t.colour.x - 9.0 / 13.0).abs() < 1e-6 && (t.colour.z - 1.0 / 13.0).abs() < 1e-6);
+    // An ellipse that misses the fine pixel's centre drops out too.
+    let mut small = coarse.clone();
+    small.texels[3].radius = 0.1;
+    let t = interpolate(&small, 1, 1, true).unwrap();
+    assert!((t.colour - Rgb::new(9.0, 3.0, 0.0) / 12.0).abs().max_element() < 1e-6);
+    let t = interpolate(&small, 1, 1, false).unwrap();
+    assert!((t.colour - expect).abs().max_element() < 1e-6);
+    // Nothing valid: no contributor.
+    let empty = Level { width: 2, height: 2, texels: vec![Texel::INVALID; 4] };
+    assert!(interpolate(&empty, 1, 1, true).is_none());
+}
+
+#[test]
+fn ellipses_follow_the_projected_normal() {
+    // A disc tilted 60° about the image's y axis: its major axis is vertical (radius 4), its
+    // minor axis horizontal (4 × cos 60° = 2).
+    let n = Vec3::new(60f32.to_radians().sin(), 0.0, -60f32.to_radians().cos());
+    let t = Texel { normal: n, radius: 4.0, z_min: 1.0, z_max: 2.0, ..Texel::INVALID };
+    let c = Vec2::ZERO;
+    assert!(ellipse_contains(&t, c, Vec2::new(0.0, 3.9)));
+    assert!(!ellipse_contains(&t, c, Vec2::new(0.0, 4.1)));
+    assert!(ellipse_contains(&t, c, Vec2::new(1.9, 0.0)));
+    assert!(!ellipse_contains(&t, c, Vec2::new(2.1, 0.0)));
+    assert!(!ellipse_contains(&t, c, Vec2::new(1.5, 3.0)));
+}
+
+/// A random cloud in front of the camera.
+fn random_cloud(n: usize, seed: u64, oriented: bool) -> PointCloud {
+    let mut positions = Vec::with_capacity(n);
+    let mut normals = Vec::with_capacity(n);
+    for i in 0..n {
+        let mut s = glint_core::random::SampleStream::new(i as u64, 0, seed);
+        let u = s.next_2d();
+        let v = s.next_2d();
+        positions.push(Vec3::new(u.x * 6.0 - 3.0, u.y * 6.0 - 3.0, -2.0 - v.x * 6.0));
+        normals.push(glint_core::sampling::sample_uniform_sphere(s.next_2d()));
+    }
+    PointCloud {
+        name: "random".into(),
+        radii: Some(vec![0.02; n]),
+        positions,
+        normals: Some(normals),
+        orientation: if oriented { Orientation::Oriented } else { Orientation::Unknown },
+        ..PointCloud::default()
+    }
+}
+
+#[test]
+fn projection_equals_a_serial_reference() {
+    for oriented in [false, true] {
+        let scene = scene_of(vec![random_cloud(200_000, 3, oriented)]);
+        let points = PreparedPoints::new(&scene).unwrap();
+        let view = View::new(&scene.camera, 97, 61);
+        let clouds = view::cloud_views(&points, &view, true);
+        for side in [1, 3] {
+            let depth: Vec<std::sync::atomic::AtomicU64> =
+                (0..97 * 61).map(|_| std::sync::atomic::AtomicU64::new(EMPTY)).collect();
+            project::project(&points, &clouds, &view, &depth, side);
+            // Serial: every point in order, a plain comparison.
+            let mut reference = vec![EMPTY; 97 * 61];
+            let mut culled = 0;
+            for (i, p) in points.stream.iter().enumerate() {
+                let Some((x, y, z)) = pixel_of(p, &clouds[0], &view) else {
+                    culled += 1;
+                    continue;
+                };
+                let lo = -((side as i64 - 1) / 2);
+                for yy in (y as i64 + lo).max(0)..(y as i64 + lo + side as i64).min(61) {
+                    for xx in (x as i64 + lo).max(0)..(x as i64 + lo + side as i64).min(97) {
+                        let slot = &mut reference[(yy * 97 + xx) as usize];
+                        *slot = (*slot).min(project::pack(z, i as u32));
+                    }
+                }
+            }
+            let got: Vec<u64> = depth.into_iter().map(|d| d.into_inner()).collect();
+            assert_eq!(got, reference, "oriented {oriented}, side {side}");
+            // Culling removes about half of the oriented points (random normals), none otherwise.
+            let frac = culled as f64 / points.len() as f64;
+            if oriented {
+                assert!(frac > 0.4, "culled {frac}");
+            }
+        }
+        // Independent geometry: each winner's world position projects into its pixel.
+        let depth: Vec<std::sync::atomic::AtomicU64> =
+            (0..97 * 61).map(|_| std::sync::atomic::AtomicU64::new(EMPTY)).collect();
+        project::project(&points, &clouds, &view, &depth, 1);
+        let rays = scene.camera.rays(97, 61);
+        for (pixel, word) in depth.iter().enumerate() {
+            let word = word.load(std::sync::atomic::Ordering::Relaxed);
+            if word == EMPTY {
+                continue;
+            }
+            let (z, i) = project::unpack(word);
+            let p = points.stream[i as usize].position;
+            assert!((rays.depth(p) - z).abs() < 1e-5 * z);
+            // The pixel's corners bound the point's direction.
+            let (x, y) = ((pixel % 97) as f32, (pixel / 97) as f32);
+            let d = (p - rays.origin) / rays.depth(p);
+            let q = view.centre + Vec2::new(d.dot(view.right), d.dot(view.down)) * view.focal;
+            assert!(
+                q.x > x - 1e-3 && q.x < x + 1.0 + 1e-3 && q.y > y - 1e-3 && q.y < y + 1.0 + 1e-3,
+                "{q} in ({x}, {y})"
+            );
+        }
+    }
+}
+
+#[test]
+fn one_and_two_threads_give_the_same_bits() {
+    let scene = scene_of(vec![random_cloud(300_000, 5, false), plane(6.0, 3.0, 0.1, 0.12, |_, _, i| hash01(i) > 0.5)]);
+    let run = |threads: usize, fill: Fill, shading: PointShading| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            let mut r = PointRenderer::new(&scene).unwrap();
+            let mut frame = PointFrame::default();
+            let settings = PointSettings { fill, shading, ..PointSettings::new(203, 157) };
+            r.render(&scene, &scene.camera, &settings, &mut frame).unwrap();
+            frame
+        })
+    };
+    for (fill, shading) in [
+        (Fill::Ellipses, PointShading::Phong),
+        (Fill::PullPush, PointShading::EyeDome),
+        (Fill::Squares, PointShading::Flat),
+        (Fill::Raw, PointShading::Phong),
+    ] {
+        let a = run(1, fill, shading);
+        let b = run(2, fill, shading);
+        let bits = |f: &PointFrame| -> Vec<u32> {
+            f.colour
+                .iter()
+                .flat_map(|c| c.to_array())
+                .chain(f.depth.iter().copied())
+                .chain(f.normal.iter().flat_map(|n| n.to_array()))
+                .map(f32::to_bits)
+                .collect()
+        };
+        assert_eq!(bits(&a), bits(&b), "{fill:?}");
+        assert!(a.coverage() > 0.1);
+    }
+}
+
+#[test]
+fn back_faces_are_culled_only_when_normals_are_oriented() {
+    // A plane whose normals point away from the camera.
+    let mut away = plane(4.0, 1.0, 0.05, 0.06, |_, _, _| true);
+    away.normals = Some(vec![Vec3::NEG_Z; away.len()]);
+    let scene = scene_of(vec![away.clone()]);
+    let (frame, _) = render(&scene, 64, Fill::Ellipses);
+    assert_eq!(frame.coverage(), 0.0);
+    away.orientation = Orientation::Unknown;
+    let scene = scene_of(vec![away]);
+    let (frame, _) = render(&scene, 64, Fill::Ellipses);
+    assert!(frame.coverage() > 0.05);
+    // Drawn two-sided, lit as seen from the camera: normals face it.
+    let i = 32 * 64 + 32;
+    assert!(frame.normal[i].dot(Vec3::Z) > 0.999);
+    assert!(frame.colour[i].x > 0.5, "lit by the light behind the camera: {}", frame.colour[i]);
+}
+
+#[test]
+fn squares_cover_their_side_and_eye_dome_darkens_steps() {
+    // One point, squares of 5 px: 25 pixels.
+    let one = PointCloud { name: "one".into(), positions: vec![Vec3::new(0.01, 0.01, -4.0)], ..PointCloud::default() };
+    let scene = scene_of(vec![one]);
+    let settings = PointSettings { fill: Fill::Squares, square_side: 5, ..PointSettings::new(32, 32) };
+    let (frame, _) = render_points(&scene, &settings).unwrap();
+    assert_eq!(frame.depth.iter().filter(|d| d.is_finite()).count(), 25);
+    // Eye-dome: two planes, the far one darkened beside the near one's edge, flat elsewhere.
+    let near = plane(4.0, 1.0, 0.02, 0.03, |_, _, _| true);
+    let far = plane(8.0, 8.0, 0.04, 0.05, |x, _, _| x > 0.0);
+    let mut scene = scene_of(vec![near, far]);
+    scene.clouds.iter_mut().for_each(|c| Arc::make_mut(&mut c.cloud).normals = None);
+    let settings = PointSettings { shading: PointShading::Auto, ..PointSettings::new(128, 128) };
+    let (frame, _) = render_points(&scene, &settings).unwrap();
+    let at = |x: usize, y: usize| frame.colour[y * 128 + x].x;
+    // Near plane spans pixels 48..80; the far plane's pixels just right of it are dark.
+    assert!(at(81, 64) < 0.5 * at(100, 64), "{} vs {}", at(81, 64), at(100, 64));
+    assert!((at(64, 64) - 0.8).abs() < 1e-3, "flat inside: {}", at(64, 64));
+}
+
+#[test]
+fn clouds_only_scenes_and_empty_views_render() {
+    // Everything behind the camera: the sky alone.
+    let scene = scene_of(vec![plane(-4.0, 1.0, 0.1, 0.1, |_, _, _| true)]);
+    let (frame, stats) = render_points(&scene, &PointSettings::new(16, 16)).unwrap();
+    assert_eq!(frame.coverage(), 0.0);
+    assert_eq!(stats.projected_pixels, 0);
+    assert!(frame.colour.iter().all(|&c| c == Rgb::new(0.1, 0.2, 0.3)));
+    let bad = PointSettings { square_side: 0, ..PointSettings::new(16, 16) };
+    assert!(render_points(&scene, &bad).is_err());
+    let bad = PointSettings::new(0, 16);
+    assert!(render_points(&scene, &bad).is_err());
+}
