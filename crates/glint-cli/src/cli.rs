@@ -126,20 +126,20 @@ pub struct PointArgs {
     #[arg(long, value_enum, default_value = "auto")]
     pub shading: ShadingArg,
     /// Eye-dome lighting strength.
-    #[arg(long = "edl-strength", default_value_t = 1.0)]
+    #[arg(long = "edl-strength", default_value_t = 1.0, allow_hyphen_values = true)]
     pub edl_strength: f32,
     /// Draw back faces of clouds with oriented normals too (no culling).
     #[arg(long = "two-sided")]
     pub two_sided: bool,
     /// Colour of a cloud file's points: auto (RGB, else intensity; elevation for LAS), rgb,
-    /// intensity, classification, elevation.
+    /// intensity, classification, elevation. (A scene's clouds take `colour_by` instead.)
     #[arg(long = "colour-by", value_enum, default_value = "auto")]
     pub colour_by: ColourByArg,
     /// Neighbours for normal and radius estimation of clouds without them.
     #[arg(long, default_value_t = 16)]
     pub neighbours: usize,
     /// Scale of the point radii (estimated or given).
-    #[arg(long = "radius-scale", default_value_t = 1.0)]
+    #[arg(long = "radius-scale", default_value_t = 1.0, allow_hyphen_values = true)]
     pub radius_scale: f32,
 }
 

@@ -74,6 +74,13 @@ pub fn run(args: &BenchPointsArgs) -> Result<()> {
         .map(|s| s.trim().parse::<u32>().with_context(|| format!("--sizes: {s:?} is not a number")))
         .collect::<Result<_>>()?;
     let fills: Vec<Fill> = args.fills.split(',').map(|s| parse_fill(s.trim())).collect::<Result<_>>()?;
+    // Every argument is checked before the table starts (and before a large cloud is read).
+    if let Some(bad) = names.iter().find(|n| !CLOUDS.contains(&n.as_str())) {
+        bail!("--clouds: unknown cloud {bad:?} (use {})", CLOUDS.join(", "));
+    }
+    for &side in &sizes {
+        PointSettings::new(side, side).validate().with_context(|| format!("--sizes: {side}"))?;
+    }
     if let Some(dir) = &args.images {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }

@@ -19,8 +19,7 @@ pub fn run(cmd: PointsCommand) -> Result<()> {
 /// Give every cloud of `scene` normals and radii (k-nearest-neighbour estimation where the file
 /// had none), and scale the radii by `--radius-scale`.
 pub fn prepare_clouds(scene: &mut Scene, args: &PointArgs, quiet: bool) -> Result<()> {
-    let settings = EstimateSettings { k: args.neighbours, radius_scale: args.radius_scale };
-    settings.validate().context("--neighbours / --radius-scale")?;
+    let settings = estimate_settings(args)?;
     for object in &mut scene.clouds {
         let missing_normals = object.cloud.normals.is_none();
         let missing_radii = object.cloud.radii.is_none();
@@ -69,6 +68,22 @@ pub fn prepare_clouds(scene: &mut Scene, args: &PointArgs, quiet: bool) -> Resul
     Ok(())
 }
 
+/// The normal and radius estimation settings of `--neighbours` and `--radius-scale`.
+fn estimate_settings(args: &PointArgs) -> Result<EstimateSettings> {
+    let settings = EstimateSettings { k: args.neighbours, radius_scale: args.radius_scale };
+    settings
+        .validate()
+        .with_context(|| format!("--neighbours {} --radius-scale {}", args.neighbours, args.radius_scale))?;
+    Ok(settings)
+}
+
+/// Check the points-mode options that do not depend on the image, naming the flag at fault:
+/// called before any cloud is read, so a typo does not wait for a large file.
+pub fn check_point_args(args: &PointArgs) -> Result<()> {
+    estimate_settings(args)?;
+    point_settings(args, 1, 1).map(|_| ())
+}
+
 /// The points mode's settings from the command line.
 pub fn point_settings(args: &PointArgs, width: u32, height: u32) -> Result<PointSettings> {
     let settings = PointSettings {
@@ -89,7 +104,9 @@ pub fn point_settings(args: &PointArgs, width: u32, height: u32) -> Result<Point
         cull: !args.two_sided,
         ..PointSettings::new(width, height)
     };
-    settings.validate().context("points mode")?;
+    settings.validate().with_context(|| {
+        format!("points mode (--square-size {}, --edl-strength {})", args.square_size, args.edl_strength)
+    })?;
     Ok(settings)
 }
 

@@ -226,6 +226,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         bail!("--exposure must be a finite number");
     }
     let pool = input::thread_pool(args.threads)?;
+    points::check_point_args(&args.points)?;
     let colour_by = match args.points.colour_by {
         ColourByArg::Auto => ColourBy::Auto,
         ColourByArg::Rgb => ColourBy::Rgb,
@@ -234,6 +235,13 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         ColourByArg::Elevation => ColourBy::Elevation,
     };
     let mut scene = input::load_with(args.input.as_deref(), colour_by, args.quiet)?;
+    let is_scene_file =
+        args.input.as_deref().is_some_and(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml")));
+    if colour_by != ColourBy::Auto && (is_scene_file || scene.clouds.is_empty()) {
+        bail!(
+            "--colour-by applies to a point-cloud file (.las, .laz, .ply, .xyz, .pts); the clouds of a scene file take `colour_by` in their [[object]]"
+        );
+    }
     apply_overrides(&mut scene, args)?;
     let mut settings = RenderSettings::from_defaults(&scene.render);
     settings.seed = args.seed;

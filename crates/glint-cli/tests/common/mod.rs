@@ -41,10 +41,15 @@ pub fn shared(rel: &str) -> Option<PathBuf> {
 /// Runs `args` in `dir` and asserts a clean failure: non-zero exit, a message containing
 /// `needle`, no panic, and `dir/out.png` still holding `b"precious"` (callers write it first).
 pub fn assert_fails_cleanly(args: &[&str], needle: &str, dir: &Path) {
+    assert_fails_keeping(args, needle, dir, "out.png");
+}
+
+/// [`assert_fails_cleanly`] with another output file: `dir/kept` must still hold `b"precious"`.
+pub fn assert_fails_keeping(args: &[&str], needle: &str, dir: &Path, kept: &str) {
     let o = glint(args, dir);
     let msg = stderr(&o);
     assert!(!o.status.success(), "{args:?} succeeded");
     assert!(msg.contains(needle), "{args:?}: message does not name {needle:?}: {msg}");
     assert!(!msg.contains("panicked"), "{args:?} panicked: {msg}");
-    assert_eq!(std::fs::read(dir.join("out.png")).expect("out.png"), b"precious", "{args:?} touched out.png");
+    assert_eq!(std::fs::read(dir.join(kept)).expect("kept file"), b"precious", "{args:?} touched {kept}");
 }

@@ -807,9 +807,14 @@ impl Builder<'_> {
                             self.err(&s.span(), "`sensor` orients estimated normals, but this cloud has its own")
                         );
                     }
-                    // The sensor is given in the cloud's own (file) coordinates.
-                    let origin = cloud.origin;
-                    let p = s.get_ref().0.as_dvec3() - origin;
+                    // The sensor is given in the file's own coordinates; LAS/LAZ are Z-up and were
+                    // turned to glint's Y-up axes on reading, (x, y, z) → (x, z, −y).
+                    let mut sensor = s.get_ref().0.as_dvec3();
+                    let ext = file.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+                    if matches!(ext.as_deref(), Some("las" | "laz")) {
+                        sensor = glint_core::glam::DVec3::new(sensor.x, sensor.z, -sensor.y);
+                    }
+                    let p = sensor - cloud.origin;
                     cloud.orientation = glint_scene::Orientation::TowardSensor(p.as_vec3());
                 }
                 let world_from_object = self.transform(def)?;

@@ -182,6 +182,9 @@ impl PointFrame {
 pub struct PointRenderer {
     points: PreparedPoints,
     depth: Vec<AtomicU64>,
+    /// Level 0 as the pull read it, for the pixels a point won: the final push reads it in
+    /// image order instead of gathering from the points again.
+    resolved: Vec<Texel>,
     levels: Vec<pyramid::Level>,
     sky_irradiance: Option<IrradianceSh>,
     every_cloud_has_normals: bool,
@@ -195,6 +198,7 @@ impl PointRenderer {
             every_cloud_has_normals: points.clouds.iter().all(|c| c.has_normals),
             points,
             depth: Vec::new(),
+            resolved: Vec::new(),
             levels: Vec::new(),
             sky_irradiance: scene.sky_ambient.then(|| scene.sky.irradiance_sh()),
         })
@@ -257,20 +261,27 @@ impl PointRenderer {
         })
     }
 
-    /// Level-0 texel of pixel (x, y): the point that won it, or invalid.
+    /// The depth word of pixel (x, y), [`EMPTY`] outside the image.
     #[inline]
-    fn level0(&self, view: &View, clouds: &[CloudView], x: i64, y: i64) -> Texel {
+    fn word(&self, view: &View, x: i64, y: i64) -> u64 {
         if x < 0 || y < 0 || x >= i64::from(view.width) || y >= i64::from(view.height) {
-            return Texel::INVALID;
+            return EMPTY;
         }
-        let word = self.depth[y as usize * view.width as usize + x as usize].load(Ordering::Relaxed);
+        self.depth[y as usize * view.width as usize + x as usize].load(Ordering::Relaxed)
+    }
+
+    /// Level-0 texel of pixel (x, y), whose depth word is `word`: the point that won it, or
+    /// invalid.
+    #[inline]
+    fn level0(&self, view: &View, clouds: &[CloudView], x: i64, y: i64, word: u64) -> Texel {
         if word == EMPTY {
             return Texel::INVALID;
         }
         let (z, index) = project::unpack(word);
         let cv = cloud_for(clouds, index);
         let i = index as usize;
-        let r = self.points.radius[i] * cv.radius_scale;
+        let attributes = self.points.attributes[i];
+        let r = attributes.radius * cv.radius_scale;
         let ray = view.camera_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
         let mut normal = if cv.has_normals {
             (cv.camera_normal_from_object * prepared::decode_octahedral_direction(self.points.stream[i].normal))
@@ -289,7 +300,7 @@ impl PointRenderer {
             depth: z,
             normal,
             radius: r * view.focal / z,
-            colour: self.points.colour[i],
+            colour: prepared::decode_colour(attributes.colour),
             displacement: Vec2::ZERO,
             material: cv.material,
         }
@@ -311,7 +322,10 @@ impl PointRenderer {
             level.resize(w, h);
         }
         if count > 0 {
-            pyramid::pull_level(|x, y| self.level0(view, clouds, x, y), &mut levels[0]);
+            let mut resolved = std::mem::take(&mut self.resolved);
+            resolved.resize(view.width as usize * view.height as usize, Texel::INVALID);
+            self.pull_from_depth(view, clouds, &mut levels[0], &mut resolved);
+            self.resolved = resolved;
             for k in 1..count {
                 let (fine, coarse) = levels.split_at_mut(k);
                 let fine = &fine[k - 1];
@@ -335,11 +349,18 @@ impl PointRenderer {
             .with_min_len(4)
             .for_each(|(y, (((depth, normal), albedo), material))| {
                 let rows = level1.map(|l1| pyramid::CoarseRows::new(l1, y as i64));
+                let words = &this.depth[y * width..(y + 1) * width];
                 for x in 0..width {
-                    let own = this.level0(view, clouds, x as i64, y as i64);
-                    let t = match &rows {
-                        Some(rows) => rows.push(x as i64, y as i64, &own, ellipses).unwrap_or(own),
-                        None => own,
+                    let word = words[x].load(Ordering::Relaxed);
+                    let t = match (&rows, word) {
+                        // Empty: only the interpolation can give it a surface.
+                        (Some(rows), EMPTY) => rows.interpolate(x as i64, y as i64, ellipses).unwrap_or(Texel::INVALID),
+                        (None, EMPTY) => Texel::INVALID,
+                        (Some(rows), _) => {
+                            let own = this.resolved[y * width + x];
+                            rows.push(x as i64, y as i64, &own, ellipses).unwrap_or(own)
+                        }
+                        (None, word) => this.level0(view, clouds, x as i64, y as i64, word),
                     };
                     if t.is_valid() {
                         depth[x] = t.depth;
@@ -355,6 +376,44 @@ impl PointRenderer {
                 }
             });
         self.levels = levels;
+    }
+
+    /// Pull level 1 straight from the depth buffer: 2×2 blocks without a point (most of them,
+    /// in most images) cost four loads. The level-0 texels made on the way are kept in
+    /// `resolved` (only where a point won; the rest is stale and never read).
+    fn pull_from_depth(&self, view: &View, clouds: &[CloudView], coarse: &mut pyramid::Level, resolved: &mut [Texel]) {
+        let cw = coarse.width as usize;
+        let w = view.width as usize;
+        const OFFSETS: [Vec2; 4] =
+            [Vec2::new(-0.5, -0.5), Vec2::new(0.5, -0.5), Vec2::new(-0.5, 0.5), Vec2::new(0.5, 0.5)];
+        coarse.texels.par_chunks_mut(cw).zip(resolved.par_chunks_mut(2 * w)).enumerate().with_min_len(4).for_each(
+            |(cy, (row, fine))| {
+                let fy = 2 * cy as i64;
+                for (cx, out) in row.iter_mut().enumerate() {
+                    let fx = 2 * cx as i64;
+                    let words = [
+                        self.word(view, fx, fy),
+                        self.word(view, fx + 1, fy),
+                        self.word(view, fx, fy + 1),
+                        self.word(view, fx + 1, fy + 1),
+                    ];
+                    if words == [EMPTY; 4] {
+                        *out = Texel::INVALID;
+                        continue;
+                    }
+                    let mut children = [(Texel::INVALID, Vec2::ZERO); 4];
+                    for (k, child) in children.iter_mut().enumerate() {
+                        let (x, y) = (fx + (k & 1) as i64, fy + (k >> 1) as i64);
+                        let t = self.level0(view, clouds, x, y, words[k]);
+                        if words[k] != EMPTY {
+                            fine[(y - fy) as usize * w + x as usize] = t;
+                        }
+                        *child = (t, OFFSETS[k]);
+                    }
+                    *out = pyramid::pull_texel(children);
+                }
+            },
+        );
     }
 
     /// The pyramid levels above level 0 after the last frame (for tests and figures).

@@ -23,6 +23,34 @@ pub struct StreamPoint {
 
 const _: () = assert!(std::mem::size_of::<StreamPoint>() == 16);
 
+/// What is read of the point that wins a pixel, besides its [`StreamPoint`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
+pub struct PointAttributes {
+    /// Object-space radius.
+    pub radius: f32,
+    /// 8-bit sRGB colour (r low), the precision point files store; decoded by [`decode_colour`].
+    pub colour: u32,
+}
+
+/// Linear colour → packed 8-bit sRGB (clamped to [0, 1]).
+pub fn encode_colour(c: Rgb) -> u32 {
+    let q = |v: f32| (glint_core::colour::linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0).round() as u32;
+    q(c.x) | q(c.y) << 8 | q(c.z) << 16
+}
+
+/// Packed 8-bit sRGB → linear colour.
+#[inline]
+pub fn decode_colour(c: u32) -> Rgb {
+    let lut = srgb_table();
+    Rgb::new(lut[(c & 0xff) as usize], lut[((c >> 8) & 0xff) as usize], lut[((c >> 16) & 0xff) as usize])
+}
+
+fn srgb_table() -> &'static [f32; 256] {
+    static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| std::array::from_fn(|i| glint_core::colour::srgb_to_linear(i as f32 / 255.0)))
+}
+
 /// One cloud's range of points and how it sits in the world.
 #[derive(Clone, Debug)]
 pub struct CloudRange {
@@ -43,10 +71,9 @@ pub struct CloudRange {
 #[derive(Clone, Debug, Default)]
 pub struct PreparedPoints {
     pub stream: Vec<StreamPoint>,
-    /// Object-space radius per point.
-    pub radius: Vec<f32>,
-    /// Linear colour per point (the material's colour where the cloud has none).
-    pub colour: Vec<Rgb>,
+    /// Radius and colour per point, side by side: the point that wins a pixel costs one more
+    /// cache line, not two.
+    pub attributes: Vec<PointAttributes>,
     pub clouds: Vec<CloudRange>,
 }
 
@@ -64,8 +91,7 @@ impl PreparedPoints {
         }
         let mut out = PreparedPoints {
             stream: Vec::with_capacity(total),
-            radius: Vec::with_capacity(total),
-            colour: Vec::with_capacity(total),
+            attributes: Vec::with_capacity(total),
             clouds: Vec::with_capacity(scene.clouds.len()),
         };
         for object in &scene.clouds {
@@ -78,14 +104,11 @@ impl PreparedPoints {
                 position: cloud.positions[i as usize],
                 normal: cloud.normals.as_ref().map_or(0, |n| encode_octahedral(n[i as usize])),
             }));
-            match &cloud.radii {
-                Some(r) => out.radius.extend(order.iter().map(|&i| r[i as usize])),
-                None => out.radius.extend(std::iter::repeat_n(fallback_radius, order.len())),
-            }
-            match &cloud.colours {
-                Some(c) => out.colour.extend(order.iter().map(|&i| c[i as usize])),
-                None => out.colour.extend(std::iter::repeat_n(material_colour, order.len())),
-            }
+            let material_colour = encode_colour(material_colour);
+            out.attributes.extend(order.iter().map(|&i| PointAttributes {
+                radius: cloud.radii.as_ref().map_or(fallback_radius, |r| r[i as usize]),
+                colour: cloud.colours.as_ref().map_or(material_colour, |c| encode_colour(c[i as usize])),
+            }));
             let m = object.world_from_object.matrix3;
             let det = m.determinant();
             out.clouds.push(CloudRange {
@@ -172,10 +195,20 @@ pub fn decode_octahedral_direction(code: u32) -> Vec3 {
     if code == 0 {
         return Vec3::ZERO;
     }
-    let d = |v: u32| (v as f32 - 1.0) * (2.0 / 65534.0) - 1.0;
-    let (x, y) = (d(code & 0xffff), d(code >> 16));
+    decode_octahedral_unchecked(code)
+}
+
+/// [`decode_octahedral_direction`] without the test for code 0 (which decodes to some
+/// direction), branch-free: the lower hemisphere folded back by `t = max(−z, 0)` (Stubbe's
+/// form), so a loop over codes can run in SIMD lanes.
+#[inline(always)]
+pub fn decode_octahedral_unchecked(code: u32) -> Vec3 {
+    const SCALE: f32 = 2.0 / 65534.0;
+    let x = (code & 0xffff) as f32 * SCALE - (1.0 + SCALE);
+    let y = (code >> 16) as f32 * SCALE - (1.0 + SCALE);
     let z = 1.0 - x.abs() - y.abs();
-    if z < 0.0 { Vec3::new((1.0 - y.abs()) * sign(x), (1.0 - x.abs()) * sign(y), z) } else { Vec3::new(x, y, z) }
+    let t = (-z).max(0.0);
+    Vec3::new(x - t.copysign(x), y - t.copysign(y), z)
 }
 
 #[inline]
@@ -204,6 +237,17 @@ mod tests {
         }
         assert_eq!(encode_octahedral(Vec3::ZERO), 0);
         assert_eq!(decode_octahedral_direction(0), Vec3::ZERO);
+    }
+
+    #[test]
+    fn colours_round_trip_through_8_bit_srgb() {
+        for i in 0..=255u32 {
+            let v = glint_core::colour::srgb_to_linear(i as f32 / 255.0);
+            let c = encode_colour(Rgb::new(v, 0.0, 1.0));
+            assert_eq!(c & 0xff, i);
+            assert_eq!(decode_colour(c), Rgb::new(v, 0.0, 1.0));
+        }
+        assert_eq!(encode_colour(Rgb::new(-1.0, 2.0, f32::NAN)) & 0xffff, 0xff00);
     }
 
     #[test]

@@ -6,7 +6,7 @@
 //! the nearest point, ties going to the lowest index: the result does not depend on the order
 //! threads visit points in, and equals the serial projection bit for bit.
 
-use super::prepared::{PreparedPoints, decode_octahedral_direction};
+use super::prepared::{PreparedPoints, decode_octahedral_direction, decode_octahedral_unchecked};
 use super::view::{CloudView, View};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -76,11 +76,50 @@ fn depth_min(slot: &AtomicU64, word: u64) {
     }
 }
 
+/// Points per block of the one-pixel projection: first the block's pixels and words are
+/// computed without branches (clip and cull become a sentinel pixel), then scattered.
+const BLOCK: usize = 128;
+
 fn project_chunk(pts: &[super::prepared::StreamPoint], base: u32, cv: &CloudView, view: &View, depth: &[AtomicU64]) {
-    let w = view.width as usize;
-    for (k, p) in pts.iter().enumerate() {
-        if let Some((x, y, z)) = pixel_of(p, cv, view) {
-            depth_min(&depth[y as usize * w + x as usize], pack(z, base + k as u32));
+    let width = view.width;
+    let m = cv.camera_from_object;
+    let (r0, r1, r2) = (m.matrix3.row(0), m.matrix3.row(1), m.matrix3.row(2));
+    let t = m.translation;
+    let cull = if cv.cull { 1.0f32 } else { 0.0 };
+    let eye = cv.eye_object;
+    let (mut px, mut py, mut pz, mut pn) = ([0f32; BLOCK], [0f32; BLOCK], [0f32; BLOCK], [0u32; BLOCK]);
+    let mut pixel = [0u32; BLOCK];
+    let mut depth_bits = [0u32; BLOCK];
+    for (b, block) in pts.chunks(BLOCK).enumerate() {
+        let first = base + (b * BLOCK) as u32;
+        let n = block.len();
+        for (k, p) in block.iter().enumerate() {
+            (px[k], py[k], pz[k], pn[k]) = (p.position.x, p.position.y, p.position.z, p.normal);
+        }
+        // Straight-line arithmetic over the block's arrays, so that the compiler can use SIMD
+        // lanes; clipping and culling select a sentinel pixel instead of branching.
+        for k in 0..n {
+            let (x, y, z) = (px[k], py[k], pz[k]);
+            let cx = r0.x * x + r0.y * y + r0.z * z + t.x;
+            let cy = r1.x * x + r1.y * y + r1.z * z + t.y;
+            let cz = r2.x * x + r2.y * y + r2.z * z + t.z;
+            let inv = view.focal / cz;
+            let sx = cx * inv + view.centre.x;
+            let sy = cy * inv + view.centre.y;
+            let inside = (cz > view.near) & (sx >= 0.0) & (sy >= 0.0) & (sx < view.width_f) & (sy < view.height_f);
+            // Back-facing: the normal points away from the eye (object space; the code's
+            // direction need not be normalised for its sign).
+            let nrm = decode_octahedral_unchecked(pn[k]);
+            let facing = nrm.x * (x - eye.x) + nrm.y * (y - eye.y) + nrm.z * (z - eye.z);
+            let back = facing * cull > 0.0;
+            let p = (sy as i32 as u32).wrapping_mul(width).wrapping_add(sx as i32 as u32);
+            pixel[k] = if inside & !back { p } else { u32::MAX };
+            depth_bits[k] = cz.to_bits();
+        }
+        for k in 0..n {
+            if pixel[k] != u32::MAX {
+                depth_min(&depth[pixel[k] as usize], (u64::from(depth_bits[k]) << 32) | u64::from(first + k as u32));
+            }
         }
     }
 }

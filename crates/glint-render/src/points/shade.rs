@@ -28,6 +28,10 @@ pub fn shade(
     let height = frame.height as usize;
     // The angle one pixel subtends at the centre: the sky's filter footprint.
     let cone = 1.0 / view.focal;
+    let constant_sky = match &scene.sky {
+        glint_scene::Sky::Colour(c) => Some(*c),
+        _ => None,
+    };
     let PointFrame { depth, normal, albedo, material, colour, .. } = frame;
     let (depth, normal, albedo, material) = (&*depth, &*normal, &*albedo, &*material);
     colour.par_chunks_mut(width).enumerate().with_min_len(4).for_each(|(y, row)| {
@@ -36,7 +40,10 @@ pub fn shade(
             let dir = view.ray_at_depth_one(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
             let z = depth[i];
             if !z.is_finite() {
-                *out = scene.sky.radiance_filtered(dir.normalize(), cone);
+                *out = match constant_sky {
+                    Some(c) => c,
+                    None => scene.sky.radiance_filtered(dir.normalize(), cone),
+                };
                 continue;
             }
             *out = match shading {
@@ -75,12 +82,8 @@ fn phong(
         if cos_l <= 0.0 {
             continue;
         }
-        let spec = if m.specular > 0.0 {
-            let r = 2.0 * cos_l * n - ls.wi;
-            r.dot(wo).max(0.0).powf(m.shininess) * m.specular
-        } else {
-            0.0
-        };
+        let r_dot_v = (2.0 * cos_l * n - ls.wi).dot(wo);
+        let spec = if m.specular > 0.0 && r_dot_v > 0.0 { r_dot_v.powf(m.shininess) * m.specular } else { 0.0 };
         c += ls.radiance * (albedo * (m.diffuse * cos_l) + Rgb::splat(spec));
     }
     c
