@@ -185,6 +185,9 @@ pub struct PointRenderer {
     /// Level 0 as the pull read it, for the pixels a point won: the final push reads it in
     /// image order instead of gathering from the points again.
     resolved: Vec<Texel>,
+    /// The winning point's normal code and attributes per pixel, gathered in one tight pass
+    /// (many cache misses in flight at once) before anything computes with them.
+    gathered: Vec<(u32, prepared::PointAttributes)>,
     levels: Vec<pyramid::Level>,
     sky_irradiance: Option<IrradianceSh>,
     every_cloud_has_normals: bool,
@@ -199,6 +202,7 @@ impl PointRenderer {
             points,
             depth: Vec::new(),
             resolved: Vec::new(),
+            gathered: Vec::new(),
             levels: Vec::new(),
             sky_irradiance: scene.sky_ambient.then(|| scene.sky.irradiance_sh()),
         })
@@ -279,13 +283,11 @@ impl PointRenderer {
         }
         let (z, index) = project::unpack(word);
         let cv = cloud_for(clouds, index);
-        let i = index as usize;
-        let attributes = self.points.attributes[i];
+        let (code, attributes) = self.gathered[y as usize * view.width as usize + x as usize];
         let r = attributes.radius * cv.radius_scale;
         let ray = view.camera_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
         let mut normal = if cv.has_normals {
-            (cv.camera_normal_from_object * prepared::decode_octahedral_direction(self.points.stream[i].normal))
-                .normalize_or(Vec3::NEG_Z)
+            (cv.camera_normal_from_object * prepared::decode_octahedral_direction(code)).normalize_or(Vec3::NEG_Z)
         } else {
             -ray.normalize()
         };
@@ -306,8 +308,27 @@ impl PointRenderer {
         }
     }
 
+    /// Copy each winning point's normal code and attributes next to its pixel.
+    fn gather(&mut self, width: usize) {
+        let mut gathered = std::mem::take(&mut self.gathered);
+        let empty = prepared::PointAttributes { radius: 0.0, colour: 0 };
+        gathered.resize(self.depth.len(), (0, empty));
+        let (depth, points) = (&self.depth, &self.points);
+        gathered.par_chunks_mut(width).zip(depth.par_chunks(width)).with_min_len(8).for_each(|(out, words)| {
+            for (g, w) in out.iter_mut().zip(words) {
+                let word = w.load(Ordering::Relaxed);
+                if word != EMPTY {
+                    let i = word as u32 as usize;
+                    *g = (points.stream[i].normal, points.attributes[i]);
+                }
+            }
+        });
+        self.gathered = gathered;
+    }
+
     /// Pull-push (per `fill`) down to the G-buffer in `frame`.
     fn reconstruct(&mut self, view: &View, clouds: &[CloudView], fill: Fill, frame: &mut PointFrame) {
+        self.gather(view.width as usize);
         let pyramid = matches!(fill, Fill::PullPush | Fill::Ellipses);
         let ellipses = fill == Fill::Ellipses;
         let count = if pyramid { pyramid::level_count(view.width, view.height) } else { 0 };

@@ -159,13 +159,14 @@ pub fn ellipse_contains(t: &Texel, centre: Vec2, q: Vec2) -> bool {
     if nxy2 < 1e-12 {
         return uu <= r2;
     }
-    // s: the component of u along the projected normal (the minor axis), t² = |u|² − s².
+    // s: the component of u along the projected normal (the minor axis), t² = |u|² − s²;
+    // (t/r)² + (s/(r·nz))² ≤ 1, multiplied by r²·nz² and by |n_xy|² (s·|n_xy| = u·n_xy), so
+    // that no division is needed.
     let s = u.dot(nxy);
-    let s2 = s * s / nxy2;
+    let s2 = s * s;
     let nz = t.normal.z.abs().max(MIN_NZ);
     let nz2 = nz * nz;
-    // (t/r)² + (s/(r·nz))² ≤ 1, multiplied by r²·nz².
-    nz2 * (uu - s2) + s2 <= r2 * nz2
+    nz2 * (uu * nxy2 - s2) + s2 <= r2 * nz2 * nxy2
 }
 
 /// The four coarse texels nearest to the fine texels of one fine row: the parent row and the

@@ -37,15 +37,18 @@ pub fn shade(
     colour.par_chunks_mut(width).enumerate().with_min_len(4).for_each(|(y, row)| {
         for (x, out) in row.iter_mut().enumerate() {
             let i = y * width + x;
-            let dir = view.ray_at_depth_one(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
             let z = depth[i];
             if !z.is_finite() {
                 *out = match constant_sky {
                     Some(c) => c,
-                    None => scene.sky.radiance_filtered(dir.normalize(), cone),
+                    None => {
+                        let dir = view.ray_at_depth_one(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+                        scene.sky.radiance_filtered(dir.normalize(), cone)
+                    }
                 };
                 continue;
             }
+            let dir = view.ray_at_depth_one(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
             *out = match shading {
                 PointShading::Flat => albedo[i],
                 PointShading::EyeDome => albedo[i] * eye_dome(depth, width, height, x, y, edl_strength),
