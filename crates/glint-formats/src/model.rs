@@ -8,8 +8,8 @@ use crate::scene_toml::Shading;
 use crate::{gltf_file, obj, ply};
 use glint_core::{Affine3A, Bounds3, Rgb, Vec3};
 use glint_scene::{
-    Attenuation, Camera, CloudObject, Fov, Light, Material, Mesh, Object, Orientation, PointCloud, RenderDefaults,
-    RenderMode, Scene, Shape, Sky, Texture,
+    Attenuation, Camera, CloudObject, Fov, Light, Material, Mesh, Object, PointCloud, RenderDefaults, RenderMode,
+    Scene, Shape, Sky, Texture,
 };
 use std::path::Path;
 use std::sync::Arc;
@@ -147,9 +147,9 @@ pub fn scene_for_model(model: Model) -> Scene {
 }
 
 /// A scene to look at one point cloud, drawn by the points mode: framed like a model (seen
-/// from +Z, looking along −Z), except that a flat airborne scan (normals to be turned up, a
-/// tile much wider than tall) is seen from 40° above the horizon on that side, since edge-on it
-/// would be a line.
+/// from +Z, looking along −Z), except that a flat cloud (an airborne scan: a tile much wider
+/// than tall) is seen from 40° above the horizon on that side, since edge-on it would be a
+/// line.
 pub fn scene_for_cloud(cloud: PointCloud) -> Scene {
     let bounds = cloud.bounds();
     let (camera, lights) = framing(bounds, is_airborne(&cloud), default_aspect());
@@ -176,10 +176,10 @@ fn default_aspect() -> f32 {
     r.width as f32 / r.height as f32
 }
 
-/// A flat scan whose normals are to be turned up (airborne LiDAR).
+/// A flat, wide cloud (airborne LiDAR, a terrain scan): lower than a quarter of its width.
 fn is_airborne(cloud: &PointCloud) -> bool {
     let extent = cloud.bounds().extent();
-    matches!(cloud.orientation, Orientation::Up(_)) && extent.y < 0.5 * extent.x.max(extent.z)
+    extent.y < 0.25 * extent.x.max(extent.z)
 }
 
 /// The default view of a scene made by [`scene_for_model`] or [`scene_for_cloud`], refitted to
