@@ -1,6 +1,7 @@
 //! Command-line syntax (clap derive).
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use glint_formats::points::ColourBy;
 use std::path::PathBuf;
 
 #[derive(Parser, Debug)]
@@ -133,8 +134,8 @@ pub struct PointArgs {
     pub two_sided: bool,
     /// Colour of a cloud file's points: auto (RGB, else intensity; elevation for LAS), rgb,
     /// intensity, classification, elevation. (A scene's clouds take `colour_by` instead.)
-    #[arg(long = "colour-by", value_enum, default_value = "auto")]
-    pub colour_by: ColourByArg,
+    #[arg(long = "colour-by", value_parser = parse_colour_by, default_value = "auto")]
+    pub colour_by: ColourBy,
     /// Neighbours for normal and radius estimation of clouds without them.
     #[arg(long, default_value_t = 16)]
     pub neighbours: usize,
@@ -161,14 +162,12 @@ pub enum ShadingArg {
     Flat,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, ValueEnum)]
-pub enum ColourByArg {
-    #[default]
-    Auto,
-    Rgb,
-    Intensity,
-    Classification,
-    Elevation,
+/// `--colour-by NAME`, by the names the scene format uses.
+fn parse_colour_by(name: &str) -> Result<ColourBy, String> {
+    ColourBy::from_name(name).ok_or_else(|| {
+        let names: Vec<&str> = ColourBy::NAMES.iter().map(|(n, _)| *n).collect();
+        format!("use {}", names.join(", "))
+    })
 }
 
 #[derive(Subcommand, Debug)]

@@ -1,7 +1,7 @@
 //! `glint render`: load, apply command-line overrides, render, write atomically.
 
 use super::points;
-use crate::cli::{ColourByArg, FilterArg, FilterOptions, FlipArg, GuideArg, ModeArg, RenderArgs, SkyArgs};
+use crate::cli::{FilterArg, FilterOptions, FlipArg, GuideArg, ModeArg, RenderArgs, SkyArgs};
 use crate::input::{self, parse_vec3};
 use crate::progress::LazyProgress;
 use anyhow::{Context, Result, bail};
@@ -227,13 +227,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     }
     let pool = input::thread_pool(args.threads)?;
     points::check_point_args(&args.points)?;
-    let colour_by = match args.points.colour_by {
-        ColourByArg::Auto => ColourBy::Auto,
-        ColourByArg::Rgb => ColourBy::Rgb,
-        ColourByArg::Intensity => ColourBy::Intensity,
-        ColourByArg::Classification => ColourBy::Classification,
-        ColourByArg::Elevation => ColourBy::Elevation,
-    };
+    let colour_by = args.points.colour_by;
     let mut scene = input::load_with(args.input.as_deref(), colour_by, args.quiet)?;
     let is_scene_file =
         args.input.as_deref().is_some_and(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml")));

@@ -28,6 +28,21 @@ pub enum ColourBy {
     Elevation,
 }
 
+impl ColourBy {
+    /// The names of the scene format's `colour_by` and the command line's `--colour-by`.
+    pub const NAMES: [(&'static str, ColourBy); 5] = [
+        ("auto", ColourBy::Auto),
+        ("rgb", ColourBy::Rgb),
+        ("intensity", ColourBy::Intensity),
+        ("classification", ColourBy::Classification),
+        ("elevation", ColourBy::Elevation),
+    ];
+
+    pub fn from_name(name: &str) -> Option<ColourBy> {
+        Self::NAMES.iter().find(|(n, _)| *n == name).map(|&(_, c)| c)
+    }
+}
+
 /// How to read a point-cloud file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub struct PointReadOptions {

@@ -785,7 +785,7 @@ impl Builder<'_> {
                     ));
                 };
                 let colour_by = match &def.colour_by {
-                    Some(c) => match colour_by_name(c.get_ref()) {
+                    Some(c) => match ColourBy::from_name(c.get_ref()) {
                         Some(v) => v,
                         None => {
                             return Err(self.err(
@@ -985,15 +985,3 @@ impl Builder<'_> {
 
 #[cfg(test)]
 mod tests;
-
-/// The `colour_by` names of the scene format (and the command line).
-pub(crate) fn colour_by_name(name: &str) -> Option<ColourBy> {
-    Some(match name {
-        "auto" => ColourBy::Auto,
-        "rgb" => ColourBy::Rgb,
-        "intensity" => ColourBy::Intensity,
-        "classification" => ColourBy::Classification,
-        "elevation" => ColourBy::Elevation,
-        _ => return None,
-    })
-}
