@@ -6,10 +6,11 @@
 //! the nearest point, ties going to the lowest index: the result does not depend on the order
 //! threads visit points in, and equals the serial projection bit for bit.
 
-use super::prepared::{PreparedPoints, decode_octahedral_direction, decode_octahedral_unchecked};
+use super::prepared::{PreparedPoints, decode_octahedral_direction};
 use super::view::{CloudView, View};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
+use wide::{f32x4, i32x4, u32x4};
 
 /// An empty pixel.
 pub const EMPTY: u64 = u64::MAX;
@@ -81,13 +82,21 @@ fn depth_min(slot: &AtomicU64, word: u64) {
 const BLOCK: usize = 128;
 
 fn project_chunk(pts: &[super::prepared::StreamPoint], base: u32, cv: &CloudView, view: &View, depth: &[AtomicU64]) {
-    let width = view.width;
     let m = cv.camera_from_object;
-    let (r0, r1, r2) = (m.matrix3.row(0), m.matrix3.row(1), m.matrix3.row(2));
-    let t = m.translation;
-    let cull = if cv.cull { 1.0f32 } else { 0.0 };
-    let eye = cv.eye_object;
-    let (mut px, mut py, mut pz, mut pn) = ([0f32; BLOCK], [0f32; BLOCK], [0f32; BLOCK], [0u32; BLOCK]);
+    let (r0, r1, r2, t) = (m.matrix3.row(0), m.matrix3.row(1), m.matrix3.row(2), m.translation);
+    let lanes = Lanes {
+        r: [r0, r1, r2].map(|r| [f32x4::splat(r.x), f32x4::splat(r.y), f32x4::splat(r.z)]),
+        t: [f32x4::splat(t.x), f32x4::splat(t.y), f32x4::splat(t.z)],
+        eye: [f32x4::splat(cv.eye_object.x), f32x4::splat(cv.eye_object.y), f32x4::splat(cv.eye_object.z)],
+        cull: f32x4::splat(if cv.cull { 1.0 } else { 0.0 }),
+        focal: f32x4::splat(view.focal),
+        centre: [f32x4::splat(view.centre.x), f32x4::splat(view.centre.y)],
+        size: [f32x4::splat(view.width_f), f32x4::splat(view.height_f)],
+        near: f32x4::splat(view.near),
+        width: i32x4::splat(view.width as i32),
+    };
+    // Lanes past the end of a block hold NaN positions, which no clip test passes.
+    let (mut px, mut py, mut pz, mut pn) = ([f32::NAN; BLOCK], [f32::NAN; BLOCK], [f32::NAN; BLOCK], [0u32; BLOCK]);
     let mut pixel = [0u32; BLOCK];
     let mut depth_bits = [0u32; BLOCK];
     for (b, block) in pts.chunks(BLOCK).enumerate() {
@@ -96,25 +105,15 @@ fn project_chunk(pts: &[super::prepared::StreamPoint], base: u32, cv: &CloudView
         for (k, p) in block.iter().enumerate() {
             (px[k], py[k], pz[k], pn[k]) = (p.position.x, p.position.y, p.position.z, p.normal);
         }
-        // Straight-line arithmetic over the block's arrays, so that the compiler can use SIMD
-        // lanes; clipping and culling select a sentinel pixel instead of branching.
-        for k in 0..n {
-            let (x, y, z) = (px[k], py[k], pz[k]);
-            let cx = r0.x * x + r0.y * y + r0.z * z + t.x;
-            let cy = r1.x * x + r1.y * y + r1.z * z + t.y;
-            let cz = r2.x * x + r2.y * y + r2.z * z + t.z;
-            let inv = view.focal / cz;
-            let sx = cx * inv + view.centre.x;
-            let sy = cy * inv + view.centre.y;
-            let inside = (cz > view.near) & (sx >= 0.0) & (sy >= 0.0) & (sx < view.width_f) & (sy < view.height_f);
-            // Back-facing: the normal points away from the eye (object space; the code's
-            // direction need not be normalised for its sign).
-            let nrm = decode_octahedral_unchecked(pn[k]);
-            let facing = nrm.x * (x - eye.x) + nrm.y * (y - eye.y) + nrm.z * (z - eye.z);
-            let back = facing * cull > 0.0;
-            let p = (sy as i32 as u32).wrapping_mul(width).wrapping_add(sx as i32 as u32);
-            pixel[k] = if inside & !back { p } else { u32::MAX };
-            depth_bits[k] = cz.to_bits();
+        for k in n..n.next_multiple_of(4) {
+            (px[k], py[k], pz[k]) = (f32::NAN, f32::NAN, f32::NAN);
+        }
+        for g in (0..n).step_by(4) {
+            let lane = |a: &[f32; BLOCK]| f32x4::new([a[g], a[g + 1], a[g + 2], a[g + 3]]);
+            let code = u32x4::new([pn[g], pn[g + 1], pn[g + 2], pn[g + 3]]);
+            let (p, d) = lanes.project([lane(&px), lane(&py), lane(&pz)], code);
+            pixel[g..g + 4].copy_from_slice(&p);
+            depth_bits[g..g + 4].copy_from_slice(&d);
         }
         for k in 0..n {
             if pixel[k] != u32::MAX {
@@ -122,6 +121,60 @@ fn project_chunk(pts: &[super::prepared::StreamPoint], base: u32, cv: &CloudView
             }
         }
     }
+}
+
+/// One cloud's view in SIMD lanes: four points projected at once (SSE2, part of every x86-64),
+/// with exactly the scalar code's operations in the same order, so every lane's pixel and depth
+/// equal [`pixel_of`]'s bit for bit.
+struct Lanes {
+    /// Rows of the camera-from-object rotation, each coefficient splatted.
+    r: [[f32x4; 3]; 3],
+    t: [f32x4; 3],
+    eye: [f32x4; 3],
+    cull: f32x4,
+    focal: f32x4,
+    centre: [f32x4; 2],
+    size: [f32x4; 2],
+    near: f32x4,
+    width: i32x4,
+}
+
+impl Lanes {
+    /// Pixel index (`u32::MAX` when clipped or culled) and depth bits of four points.
+    #[inline(always)]
+    fn project(&self, [x, y, z]: [f32x4; 3], code: u32x4) -> ([u32; 4], [u32; 4]) {
+        let row = |r: &[f32x4; 3], t: f32x4| r[0] * x + r[1] * y + r[2] * z + t;
+        let (cx, cy, cz) = (row(&self.r[0], self.t[0]), row(&self.r[1], self.t[1]), row(&self.r[2], self.t[2]));
+        let inv = self.focal / cz;
+        let sx = cx * inv + self.centre[0];
+        let sy = cy * inv + self.centre[1];
+        let zero = f32x4::ZERO;
+        let inside = cz.simd_gt(self.near)
+            & sx.simd_ge(zero)
+            & sy.simd_ge(zero)
+            & sx.simd_lt(self.size[0])
+            & sy.simd_lt(self.size[1]);
+        // The octahedral normal, decoded as `decode_octahedral_unchecked` does.
+        const SCALE: f32 = 2.0 / 65534.0;
+        let unpack = |v: u32x4| f32x4::from_i32x4(i32x4::from(v.to_array().map(|c| c as i32)));
+        let nx = unpack(code & u32x4::splat(0xffff)) * f32x4::splat(SCALE) - f32x4::splat(1.0 + SCALE);
+        let ny = unpack(code >> 16) * f32x4::splat(SCALE) - f32x4::splat(1.0 + SCALE);
+        let nz = f32x4::ONE - nx.abs() - ny.abs();
+        let fold = (-nz).max(zero);
+        let (nx, ny) = (nx - fold.copysign(nx), ny - fold.copysign(ny));
+        let facing = nx * (x - self.eye[0]) + ny * (y - self.eye[1]) + nz * (z - self.eye[2]);
+        let back = (facing * self.cull).simd_gt(zero);
+        let keep: i32x4 = bytemuck_cast(inside & !back);
+        let index = sy.fast_trunc_int() * self.width + sx.fast_trunc_int();
+        let pixel = keep.select(index, i32x4::splat(-1));
+        (pixel.to_array().map(|p| p as u32), cz.to_bits().to_array())
+    }
+}
+
+/// A lane mask of floats as the same bits in integer lanes.
+#[inline(always)]
+fn bytemuck_cast(m: f32x4) -> i32x4 {
+    i32x4::from(m.to_bits().to_array().map(|b| b as i32))
 }
 
 fn project_chunk_squares(
