@@ -35,6 +35,10 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 use view::{CloudView, cloud_for, cloud_views};
 
+/// Most pixels the points mode draws: its per-pixel buffers (depth word, gathered attributes,
+/// level-0 texel, pyramid, G-buffer, film) come to about 250 bytes a pixel, 8 GB here.
+pub const MAX_POINT_PIXELS: u64 = 1 << 25;
+
 /// How the holes between projected points are filled (the ablations of BENCHMARKS.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Fill {
@@ -94,6 +98,12 @@ impl PointSettings {
     pub fn validate(&self) -> Result<(), RenderError> {
         if !glint_scene::scene::image_size_ok(self.width, self.height) {
             return Err(RenderError::InvalidSetting(format!("image size {}x{}", self.width, self.height)));
+        }
+        if u64::from(self.width) * u64::from(self.height) > MAX_POINT_PIXELS {
+            return Err(RenderError::InvalidSetting(format!(
+                "image size {}x{}: the points mode draws at most 2^25 pixels (e.g. 8192x4096); its buffers take about 250 bytes per pixel",
+                self.width, self.height
+            )));
         }
         if !(1..=15).contains(&self.square_side) {
             return Err(RenderError::InvalidSetting(format!(

@@ -469,4 +469,8 @@ fn clouds_only_scenes_and_empty_views_render() {
     assert!(render_points(&scene, &bad).is_err());
     let bad = PointSettings::new(0, 16);
     assert!(render_points(&scene, &bad).is_err());
+    // Too many pixels for the points mode's buffers: refused before anything is allocated.
+    let huge = PointSettings::new(16384, 8192);
+    let e = render_points(&scene, &huge).err().unwrap().to_string();
+    assert!(e.contains("2^25 pixels"), "{e}");
 }
