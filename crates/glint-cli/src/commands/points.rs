@@ -105,7 +105,10 @@ pub fn point_settings(args: &PointArgs, width: u32, height: u32) -> Result<Point
         ..PointSettings::new(width, height)
     };
     settings.validate().with_context(|| {
-        format!("points mode (--square-size {}, --edl-strength {})", args.square_size, args.edl_strength)
+        format!(
+            "points mode ({width}x{height}, --square-size {}, --edl-strength {})",
+            args.square_size, args.edl_strength
+        )
     })?;
     Ok(settings)
 }
