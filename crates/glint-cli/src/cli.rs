@@ -345,6 +345,39 @@ pub enum BenchCommand {
     /// The point-rendering paper's table 1: frames per second of the points mode on scans, a
     /// LiDAR tile and sampled clouds, split into projection, pull-push and shading.
     Points(BenchPointsArgs),
+    /// The viewer's frame loop without a window: a fixed orbit around the content, per-frame
+    /// times of any mode (what the window would show, measured).
+    View(BenchViewArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct BenchViewArgs {
+    /// Scene, model or point cloud; omitted: the built-in demo scene.
+    pub input: Option<PathBuf>,
+    /// Frames of the orbit (one full turn).
+    #[arg(long, default_value_t = 60)]
+    pub frames: usize,
+    /// whitted, path or points; default: the scene's mode.
+    #[arg(long, value_enum)]
+    pub mode: Option<ModeArg>,
+    #[arg(long, default_value_t = 1280)]
+    pub width: u32,
+    #[arg(long, default_value_t = 720)]
+    pub height: u32,
+    /// Path mode: samples per pixel per frame.
+    #[arg(long, default_value_t = 1)]
+    pub spp: u32,
+    /// Path mode: indirect bounces.
+    #[arg(long = "max-bounces", default_value_t = 1)]
+    pub max_bounces: u32,
+    /// Path mode: filter of the indirect light.
+    #[arg(long, value_enum, default_value = "guided")]
+    pub filter: FilterArg,
+    /// Print every frame's time, not only the summary.
+    #[arg(long = "per-frame")]
+    pub per_frame: bool,
+    #[arg(long)]
+    pub threads: Option<usize>,
 }
 
 #[derive(Args, Debug)]

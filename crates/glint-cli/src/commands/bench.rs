@@ -33,6 +33,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         BenchCommand::Filters(a) => super::bench_gi::filters(&a),
         BenchCommand::Gi(a) => super::bench_gi::gi(&a),
         BenchCommand::Points(a) => super::bench_points::run(&a),
+        BenchCommand::View(a) => super::bench_view::run(&a),
     }
 }
 

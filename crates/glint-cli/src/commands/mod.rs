@@ -3,6 +3,7 @@
 mod bench;
 mod bench_gi;
 mod bench_points;
+mod bench_view;
 mod compare;
 mod filter;
 mod points;
