@@ -12,14 +12,6 @@ use glint_scene::{Mesh, Scene};
 use rayon::prelude::*;
 use std::io::Write;
 
-/// Print a line to stdout; a closed pipe (`glint bench ... | head`) ends the command quietly
-/// instead of panicking.
-macro_rules! out {
-    ($($arg:tt)*) => {
-        writeln!(std::io::stdout(), $($arg)*).context("cannot write to standard output")?
-    };
-}
-
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 

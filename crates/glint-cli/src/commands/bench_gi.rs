@@ -17,12 +17,6 @@ use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
-macro_rules! out {
-    ($($arg:tt)*) => {
-        writeln!(std::io::stdout(), $($arg)*).context("cannot write to standard output")?
-    };
-}
-
 /// The scenes of the paper's comparisons, built from ../shared/data.
 const SCENES: [(&str, &str); 4] = [
     ("sponza", include_str!("../../../../scenes/sponza.toml")),

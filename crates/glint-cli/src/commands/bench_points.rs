@@ -15,12 +15,6 @@ use glint_scene::Scene;
 use std::io::Write;
 use std::path::Path;
 
-macro_rules! out {
-    ($($arg:tt)*) => {
-        writeln!(std::io::stdout(), $($arg)*).context("cannot write to standard output")?
-    };
-}
-
 /// The benchmark's clouds: name, how to make it.
 const CLOUDS: [&str; 5] = ["bunny", "dragon", "autzen", "sampled-1m", "sampled-5m"];
 

@@ -14,12 +14,6 @@ use glint_scene::RenderMode;
 use glint_view::{CameraController, ControlMode, FrameRenderer, InputState, ViewMode, ViewSettings};
 use std::io::Write;
 
-macro_rules! out {
-    ($($arg:tt)*) => {
-        writeln!(std::io::stdout(), $($arg)*).context("cannot write to standard output")?
-    };
-}
-
 pub fn run(args: &BenchViewArgs) -> Result<()> {
     if args.frames == 0 || args.frames > 100_000 {
         bail!("--frames {}: must be 1..=100000", args.frames);

@@ -1,5 +1,13 @@
 //! One module per subcommand.
 
+/// Print a line to stdout; a closed pipe (`glint bench ... | head`) ends the command quietly
+/// instead of panicking. (Defined before the modules so that each can use it.)
+macro_rules! out {
+    ($($arg:tt)*) => {
+        writeln!(std::io::stdout(), $($arg)*).context("cannot write to standard output")?
+    };
+}
+
 mod bench;
 mod bench_gi;
 mod bench_points;
