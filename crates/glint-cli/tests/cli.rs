@@ -125,3 +125,32 @@ fn bench_rays_dumps_what_it_traced() {
         assert_eq!(std::fs::metadata(d.join("dump.tris.f32")).unwrap().len() % 36, 0);
     }
 }
+
+/// `--scene-time` shows scenes/animated.toml at a time: two times give two pictures, time 0
+/// is the scene as loaded, and a non-finite time is refused.
+#[test]
+fn scene_time_renders_the_animation_at_that_time() {
+    let d = scratch("scene-time");
+    let scene = common::repo().join("scenes/animated.toml");
+    let scene = scene.to_str().unwrap();
+    let render = |name: &str, extra: &[&str]| {
+        let mut args = vec!["render", scene, "-o", name, "--width", "64", "--height", "36", "-q"];
+        args.extend_from_slice(extra);
+        let o = glint(&args, &d);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        std::fs::read(d.join(name)).unwrap()
+    };
+    let plain = render("plain.exr", &[]);
+    assert_eq!(render("zero.exr", &["--scene-time", "0"]), plain, "t = 0 is the scene as loaded");
+    let later = render("later.exr", &["--scene-time", "1.5"]);
+    assert_ne!(later, plain, "things moved by t = 1.5");
+    assert_ne!(render("before.exr", &["--scene-time", "-0.5"]), plain, "negative times are times too");
+    assert_eq!(render("again.exr", &["--scene-time", "1.5"]), later, "the same time, the same picture");
+    let path = render("path.png", &["--scene-time", "1.5", "--mode", "path"]);
+    assert!(!path.is_empty());
+    std::fs::write(d.join("out.png"), b"precious").unwrap();
+    for bad in ["nan", "inf", "-inf"] {
+        assert_fails_cleanly(&["render", scene, "-o", "out.png", "--scene-time", bad], "--scene-time", &d);
+    }
+    assert_fails_cleanly(&["render", scene, "-o", "out.png", "--scene-time", "soon"], "--scene-time", &d);
+}

@@ -143,6 +143,7 @@ pub fn scene_for_model(model: Model) -> Scene {
         objects,
         clouds: Vec::new(),
         lights,
+        animations: Vec::new(),
     }
 }
 

@@ -12,7 +12,7 @@
 use glint_accel::{BuildOptions, MeshBvh, SphereSet, Tlas, primitives};
 use glint_core::float::gamma;
 use glint_core::{Affine3A, Bounds3, Mat3, Ray, Rgb, Vec2, Vec3, float::offset_ray_origin};
-use glint_scene::{IrradianceSh, Material, Mesh, Object, Scene, Shape, Sky, Texture};
+use glint_scene::{AnimationTarget, IrradianceSh, Light, Material, Mesh, Object, Scene, Shape, Sky, Texture};
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -153,6 +153,12 @@ pub struct World {
     pub stats: WorldStats,
 }
 
+/// An animated object's placement or light, before [`World::set_time`] moves it.
+enum Placement {
+    Object(usize, Affine3A, Shape),
+    Light(usize, Light),
+}
+
 /// Up to this many untransformed spheres are tested as a vector set; more go into the TLAS.
 const SPHERE_SET_LIMIT: usize = 16;
 
@@ -277,13 +283,78 @@ impl World {
 
     /// Move object `object` (not a plane): only the top level is rebuilt.
     pub fn set_transform(&mut self, object: usize, world_from_object: Affine3A) -> bool {
-        let Some(Some(i)) = self.instance_of_object.get(object).copied() else { return false };
-        let inst = &self.instances[i];
-        self.instances[i] = Instance::new(inst.shape, inst.object, inst.material, world_from_object, inst.opaque);
+        if !matches!(self.instance_of_object.get(object), Some(Some(_))) {
+            return false;
+        }
         self.scene.objects[object].world_from_object = world_from_object;
-        self.curvature[object] = object_curvature(&self.scene.objects[object]);
+        self.place_object(object);
         self.rebuild_top_level();
         true
+    }
+
+    /// Put the scene's animated objects and lights where they are at time `t` (seconds; see
+    /// [`Scene::set_time`]): the moved instances get their new transforms, moved planes their
+    /// new equations, and the top level is rebuilt once; no mesh BVH is touched. Lights are
+    /// read from the scene by every render, so a moved light needs nothing more. Returns whether
+    /// anything moved. The result is the world [`World::new`] builds from the scene at `t`.
+    pub fn set_time(&mut self, t: f32) -> bool {
+        if !self.scene.is_animated() {
+            return false;
+        }
+        // The animated targets as they are now, to tell what moved.
+        let before: Vec<Placement> = self
+            .scene
+            .animations
+            .iter()
+            .filter_map(|a| match a.target {
+                AnimationTarget::Object(i) => {
+                    self.scene.objects.get(i).map(|o| Placement::Object(i, o.world_from_object, o.shape))
+                }
+                AnimationTarget::Light(i) => self.scene.lights.get(i).map(|l| Placement::Light(i, *l)),
+            })
+            .collect();
+        self.scene.set_time(t);
+        let mut changed = false;
+        let mut moved_instance = false;
+        for was in before {
+            match was {
+                Placement::Object(i, w, shape) => {
+                    let o = &self.scene.objects[i];
+                    if o.world_from_object != w || o.shape != shape {
+                        changed = true;
+                        moved_instance |= self.place_object(i);
+                    }
+                }
+                Placement::Light(i, l) => changed |= self.scene.lights[i] != l,
+            }
+        }
+        if moved_instance {
+            self.rebuild_top_level();
+        }
+        changed
+    }
+
+    /// Bring the instance (or plane) of object `object` in line with its placement in the
+    /// scene, without rebuilding the top level. Returns whether an instance (a TLAS member)
+    /// changed.
+    fn place_object(&mut self, object: usize) -> bool {
+        let o = &self.scene.objects[object];
+        self.curvature[object] = object_curvature(o);
+        match (o.shape, self.instance_of_object.get(object).copied().flatten()) {
+            (Shape::Plane { normal, offset }, _) => {
+                if let Some(p) = self.planes.iter_mut().find(|p| p.object as usize == object) {
+                    (p.normal, p.offset) = (normal, offset);
+                }
+                false
+            }
+            (_, Some(i)) => {
+                let inst = &self.instances[i];
+                self.instances[i] =
+                    Instance::new(inst.shape, inst.object, inst.material, o.world_from_object, inst.opaque);
+                true
+            }
+            (_, None) => false,
+        }
     }
 
     /// New vertex positions for mesh `mesh` (same triangles): its BVH is refitted, not rebuilt.
@@ -807,5 +878,197 @@ mod tests {
                 }
             }
         }
+    }
+
+    use crate::{RenderSettings, Schedule};
+    use glint_scene::{AnimationBase, AnimationTarget, Attenuation, Keyframes, Light, Motion, Repeat, Rotation};
+
+    fn small_settings() -> RenderSettings {
+        RenderSettings {
+            width: 48,
+            height: 32,
+            samples_per_side: 1,
+            max_depth: 4,
+            min_contribution: 1e-3,
+            seed: 0,
+            schedule: Schedule::WorkStealing,
+        }
+    }
+
+    fn colours(world: &World) -> Vec<[u32; 3]> {
+        let (film, _) = crate::render(world, &small_settings()).expect("valid settings");
+        film.pixels.iter().map(|p| p.colour.to_array().map(f32::to_bits)).collect()
+    }
+
+    fn spin(axis: Vec3, degrees_per_second: f32) -> Option<Rotation> {
+        Some(Rotation { axis, pivot: None, degrees_per_second, phase_deg: 0.0 })
+    }
+
+    fn keys(keys: Vec<(f32, Vec3)>, repeat: Repeat) -> Option<Keyframes> {
+        Some(Keyframes { keys, repeat })
+    }
+
+    /// A mesh turning about the vertical, a sphere bouncing (it starts untransformed, in the
+    /// sphere set, and leaves it when it moves), a light circling, over a floor.
+    fn animated_scene() -> Scene {
+        let mut s = scene(Some(Shape::Plane { normal: Vec3::Y, offset: 1.0 }), Affine3A::from_scale(Vec3::splat(0.6)));
+        s.objects.push(Object {
+            name: "ball".into(),
+            shape: Shape::Sphere { centre: Vec3::new(1.0, -0.5, 0.0), radius: 0.4 },
+            material: 0,
+            world_from_object: Affine3A::IDENTITY,
+        });
+        s.lights.push(Light::Point {
+            position: Vec3::new(2.0, 3.0, 2.0),
+            colour: Rgb::ONE,
+            intensity: 1.0,
+            attenuation: Attenuation::None,
+        });
+        s.sky = Sky::Colour(Rgb::new(0.2, 0.3, 0.5));
+        let turn = Motion { rotation: spin(Vec3::new(0.3, 1.0, 0.0), 40.0), translation: None };
+        s.animate(&[AnimationTarget::Object(0)], turn).expect("in range");
+        let bounce = keys(vec![(0.0, Vec3::ZERO), (1.0, Vec3::new(0.0, 1.2, 0.0))], Repeat::PingPong);
+        s.animate(&[AnimationTarget::Object(2)], Motion { rotation: None, translation: bounce }).expect("in range");
+        let circle = Rotation { pivot: Some(Vec3::ZERO), ..spin(Vec3::Y, 90.0).expect("some") };
+        s.animate(&[AnimationTarget::Light(0)], Motion { rotation: Some(circle), translation: None })
+            .expect("in range");
+        s.set_time(0.0);
+        s.validate().expect("valid animated scene");
+        s
+    }
+
+    /// The scene at `t` placed by hand from the animations' rest states, not by `set_time`.
+    fn placed_directly(mut s: Scene, t: f32) -> Scene {
+        for a in s.animations.clone() {
+            let m = a.motion.transform_at(t, a.pivot);
+            match (a.target, a.base) {
+                (AnimationTarget::Object(i), AnimationBase::Object { world_from_object, .. }) => {
+                    s.objects[i].world_from_object = m * world_from_object;
+                }
+                (AnimationTarget::Light(i), AnimationBase::Light(Light::Point { position, .. })) => {
+                    let Light::Point { position: p, .. } = &mut s.lights[i] else { panic!("a point light") };
+                    *p = m.transform_point3(position);
+                }
+                _ => panic!("no other kinds here"),
+            }
+        }
+        s
+    }
+
+    /// `set_time` moves instances and lights to exactly where a world built afresh at that time
+    /// has them: the same hits and bit-identical renders; back at 0 the first image returns.
+    #[test]
+    fn set_time_equals_a_world_built_at_that_time() {
+        let scene = animated_scene();
+        let mut world = World::new(scene.clone());
+        let first = colours(&world);
+        let unanimated = World::new(Scene { animations: Vec::new(), ..scene.clone() });
+        assert_eq!(colours(&unanimated), first, "animations at rest change nothing");
+        let blas_before: Vec<usize> = world.blas.iter().map(|b| b.stats().node_bytes).collect();
+        for t in [0.35, 1.3, 2.75] {
+            assert!(world.set_time(t), "t = {t}: something moved");
+            let fresh = World::new(placed_directly(scene.clone(), t));
+            assert_eq!(world.scene.objects, fresh.scene.objects, "t = {t}");
+            assert_eq!(world.scene.lights, fresh.scene.lights, "t = {t}");
+            let cam = world.scene.camera.rays(24, 16);
+            for y in 0..16 {
+                for x in 0..24 {
+                    let ray = cam.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+                    let (a, b) = (world.intersect(&ray), fresh.intersect(&ray));
+                    let key =
+                        |h: Option<SurfaceHit>| h.map(|h| (h.t.to_bits(), h.object, h.prim, h.position.to_array()));
+                    assert_eq!(key(a), key(b), "t = {t}, pixel ({x}, {y})");
+                }
+            }
+            let image = colours(&world);
+            assert_eq!(image, colours(&fresh), "t = {t}");
+            assert_ne!(image, first, "t = {t}: the picture changed");
+        }
+        assert_eq!(blas_before, world.blas.iter().map(|b| b.stats().node_bytes).collect::<Vec<_>>());
+        assert!(world.set_time(0.0));
+        assert_eq!(colours(&world), first, "back at t = 0");
+        assert!(!world.set_time(0.0), "nothing moves from 0 to 0");
+    }
+
+    /// A light moving sideways moves the shadow of a ball on the floor (Whitted reads the
+    /// scene's lights at every render).
+    #[test]
+    fn a_moving_light_moves_the_shadow() {
+        let matte = Material { ambient: 0.0, diffuse: 1.0, specular: 0.0, ..Material::default() };
+        let mut s = Scene {
+            camera: Camera {
+                position: Vec3::new(0.0, 3.0, 6.0),
+                forward: Vec3::new(0.0, -3.0, -6.0),
+                up: Vec3::Y,
+                fov: Fov::Vertical(40.0),
+            },
+            sky: Sky::Colour(Rgb::ZERO),
+            materials: vec![matte],
+            objects: vec![
+                Object {
+                    name: "floor".into(),
+                    shape: Shape::Plane { normal: Vec3::Y, offset: 0.0 },
+                    material: 0,
+                    world_from_object: Affine3A::IDENTITY,
+                },
+                Object {
+                    name: "ball".into(),
+                    shape: Shape::Sphere { centre: Vec3::Y, radius: 0.5 },
+                    material: 0,
+                    world_from_object: Affine3A::IDENTITY,
+                },
+            ],
+            lights: vec![Light::Point {
+                position: Vec3::new(0.0, 5.0, 0.0),
+                colour: Rgb::ONE,
+                intensity: 1.0,
+                attenuation: Attenuation::None,
+            }],
+            ..Scene::default()
+        };
+        let slide = keys(vec![(0.0, Vec3::ZERO), (1.0, Vec3::new(4.0, 0.0, 0.0))], Repeat::Hold);
+        s.animate(&[AnimationTarget::Light(0)], Motion { rotation: None, translation: slide }).expect("in range");
+        s.validate().expect("valid");
+        let mut world = World::new(s);
+        let settings = RenderSettings { width: 33, height: 33, ..small_settings() };
+        let centre = |w: &World| crate::render(w, &settings).expect("valid").0.pixel(16, 16).colour;
+        let lit = |w: &World, p: Vec3| {
+            let light = w.scene.lights[0].position().expect("a point light");
+            let hit = w.intersect(&Ray::new(p + Vec3::Y, -Vec3::Y)).expect("the floor");
+            w.transmittance(&hit.spawn_ray_to(light)).x > 0.0
+        };
+        let aside = Vec3::new(-1.25, 0.0, 0.0);
+        assert_eq!(centre(&world), Rgb::ZERO, "under the ball: in its shadow");
+        assert!(lit(&world, aside));
+        assert!(world.set_time(1.0));
+        assert_eq!(world.scene.lights[0].position(), Some(Vec3::new(4.0, 5.0, 0.0)));
+        assert!(centre(&world).x > 0.1, "the shadow has moved away");
+        assert!(!lit(&world, aside), "and fallen here");
+        assert!(!world.set_time(2.0), "held at the last key");
+    }
+
+    /// An animated plane moves its equation: turned a quarter about Z it becomes x = 0, and
+    /// keyframes lift it.
+    #[test]
+    fn an_animated_plane_turns_and_rises() {
+        let mut s = scene(
+            Some(Shape::Plane { normal: Vec3::Y, offset: 0.0 }),
+            Affine3A::from_translation(Vec3::new(0.0, 0.0, -50.0)),
+        );
+        let rise = keys(vec![(0.0, Vec3::ZERO), (1.0, Vec3::new(0.0, 1.0, 0.0))], Repeat::Hold);
+        s.animate(&[AnimationTarget::Object(1)], Motion { rotation: None, translation: rise }).expect("in range");
+        let mut world = World::new(s.clone());
+        let down = Ray::new(Vec3::new(0.0, 3.0, 0.0), -Vec3::Y);
+        assert_eq!(world.intersect(&down).map(|h| h.t), Some(3.0));
+        assert!(world.set_time(1.0));
+        assert_eq!(world.intersect(&down).map(|h| h.t), Some(2.0));
+        s.animations.clear();
+        let quarter = Rotation { pivot: Some(Vec3::ZERO), ..spin(Vec3::Z, 90.0).expect("some") };
+        s.animate(&[AnimationTarget::Object(1)], Motion { rotation: Some(quarter), translation: None })
+            .expect("in range");
+        let mut world = World::new(s);
+        assert!(world.set_time(1.0));
+        let hit = world.intersect(&Ray::new(Vec3::new(3.0, 0.5, 0.0), -Vec3::X)).expect("the plane x = 0");
+        assert!((hit.t - 3.0).abs() < 1e-5 && (hit.geometric_normal - (-Vec3::X)).length() < 1e-6, "{hit:?}");
     }
 }

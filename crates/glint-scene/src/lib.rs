@@ -1,13 +1,14 @@
 //! glint-scene: the validated, immutable scene every mode renders.
 //!
-//! Camera, shapes (sphere, plane, triangle mesh), point clouds, materials, textures, lights and
-//! the sky.
+//! Camera, shapes (sphere, plane, triangle mesh), point clouds, materials, textures, lights,
+//! the sky, and simple animations of objects and lights.
 //! Built by glint-formats from files (or by code), checked once by [`Scene::validate`], then
 //! read-only: integrators never see an invalid value, so hot paths need no `Result`.
 //! Depends on glint-core and glint-image only; knows nothing of acceleration structures.
 // One measured hot kernel (the sky's SIMD texel filter) allows unsafe, with its SAFETY note.
 #![deny(unsafe_code)]
 
+pub mod animation;
 pub mod camera;
 pub mod error;
 pub mod light;
@@ -19,6 +20,7 @@ pub mod scene;
 pub mod sky;
 pub mod texture;
 
+pub use animation::{Animation, AnimationBase, AnimationTarget, Keyframes, Motion, Repeat, Rotation};
 pub use camera::{Camera, CameraRays, Fov};
 pub use error::SceneError;
 pub use light::{Attenuation, Light};

@@ -1,6 +1,6 @@
 //! The scene: everything a render needs, validated once.
 
-use crate::{Camera, CloudObject, Light, Material, Mesh, Object, SceneError, Shape, Sky, Texture};
+use crate::{Animation, Camera, CloudObject, Light, Material, Mesh, Object, SceneError, Shape, Sky, Texture};
 use glint_core::{Bounds3, Rgb, Vec3};
 use std::sync::Arc;
 
@@ -78,6 +78,8 @@ pub struct Scene {
     /// Point clouds (drawn by the points mode only).
     pub clouds: Vec<CloudObject>,
     pub lights: Vec<Light>,
+    /// Objects and lights that move ([`Scene::set_time`] places them; at most one each).
+    pub animations: Vec<Animation>,
 }
 
 fn finite3(v: Vec3) -> bool {
@@ -89,22 +91,27 @@ impl Scene {
     pub fn bounds(&self) -> Bounds3 {
         let mut b = Bounds3::EMPTY;
         for o in &self.objects {
-            let local = match o.shape {
-                Shape::Sphere { centre, radius } => {
-                    Bounds3::new(centre - Vec3::splat(radius), centre + Vec3::splat(radius))
-                }
-                Shape::Plane { .. } => continue,
-                Shape::Mesh(i) => match self.meshes.get(i) {
-                    Some(m) => m.bounds(),
-                    None => continue,
-                },
-            };
-            b = b.union(local.transformed(&o.world_from_object));
+            b = b.union(self.object_bounds(o));
         }
         for c in &self.clouds {
             b = b.union(c.cloud.bounds().transformed(&c.world_from_object));
         }
         b
+    }
+
+    /// World-space bounds of one object (empty for planes and dangling meshes).
+    pub fn object_bounds(&self, o: &Object) -> Bounds3 {
+        let local = match o.shape {
+            Shape::Sphere { centre, radius } => {
+                Bounds3::new(centre - Vec3::splat(radius), centre + Vec3::splat(radius))
+            }
+            Shape::Plane { .. } => return Bounds3::EMPTY,
+            Shape::Mesh(i) => match self.meshes.get(i) {
+                Some(m) => m.bounds(),
+                None => return Bounds3::EMPTY,
+            },
+        };
+        local.transformed(&o.world_from_object)
     }
 
     /// Check every value an integrator relies on. After `Ok`, rendering cannot meet a NaN
@@ -166,6 +173,9 @@ impl Scene {
         }
         for c in &self.clouds {
             self.validate_cloud(c)?;
+        }
+        for (i, a) in self.animations.iter().enumerate() {
+            self.validate_animation(i, a)?;
         }
         Ok(())
     }

@@ -30,6 +30,15 @@ fn output_kind(path: &Path) -> Result<OutputKind> {
 
 /// Apply size, sampling and camera overrides from the command line.
 pub fn apply_overrides(scene: &mut Scene, args: &RenderArgs) -> Result<()> {
+    if let Some(t) = args.scene_time {
+        if !t.is_finite() {
+            bail!("--scene-time {t}: must be a finite number of seconds");
+        }
+        if !scene.is_animated() && !args.quiet {
+            eprintln!("glint: warning: --scene-time {t}: the scene has no animations");
+        }
+        scene.set_time(t);
+    }
     if let Some(w) = args.width {
         scene.render.width = w;
     }

@@ -181,6 +181,8 @@ pub(crate) struct LightDef {
     pub inner_angle: Option<Spanned<Num>>,
     pub outer_angle: Option<Spanned<Num>>,
     pub falloff: Option<Spanned<Falloff>>,
+    /// `[light.animation]`: any type of light.
+    pub animation: Option<Spanned<AnimationDef>>,
 }
 
 #[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq)]
@@ -231,6 +233,45 @@ pub(crate) struct ObjectDef {
     pub colour_by: Option<Spanned<String>>,
     /// Points: the scanner's position, toward which estimated normals are turned.
     pub sensor: Option<Spanned<V3>>,
+    /// `[object.animation]`: spheres, planes and meshes (not point clouds).
+    pub animation: Option<Spanned<AnimationDef>>,
+}
+
+/// What keyframes do outside their times.
+#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub(crate) enum RepeatDef {
+    Hold,
+    Loop,
+    #[serde(alias = "ping_pong", alias = "pingpong")]
+    PingPong,
+}
+
+/// `[object.animation]` / `[light.animation]`: a rotation, keyframes, or both.
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct AnimationDef {
+    pub rotate: Option<Spanned<RotateDef>>,
+    pub keyframes: Option<Spanned<Vec<Spanned<KeyframeDef>>>>,
+    pub repeat: Option<Spanned<RepeatDef>>,
+}
+
+/// `rotate = { axis = [0, 1, 0], degrees_per_second = 45, pivot = [0, 1, 0], phase_deg = 0 }`.
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RotateDef {
+    pub axis: Option<Spanned<V3>>,
+    pub degrees_per_second: Option<Spanned<Num>>,
+    pub pivot: Option<Spanned<V3>>,
+    pub phase_deg: Option<Spanned<Num>>,
+}
+
+/// `{ time = 2, offset = [0, 1, 0] }`.
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct KeyframeDef {
+    pub time: Option<Spanned<Num>>,
+    pub offset: Option<Spanned<V3>>,
 }
 
 fn span_of<T>(v: &Option<Spanned<T>>) -> Option<Span> {

@@ -18,14 +18,14 @@ use crate::points::{self, ColourBy, PointReadOptions};
 use crate::sky::{FaceTransform, LoadedSky, SkyLoadOptions, SkySource, load_sky};
 use crate::{Loaded, texture_file};
 use defs::{
-    CameraDef, Falloff, Flip, LightDef, LightKind, MaterialDef, ObjectDef, ObjectKind, SceneDef, SkyDef, SkyKind, Span,
-    TextureDef, TextureKind,
+    AnimationDef, CameraDef, Falloff, Flip, LightDef, LightKind, MaterialDef, ObjectDef, ObjectKind, RepeatDef,
+    SceneDef, SkyDef, SkyKind, Span, TextureDef, TextureKind,
 };
 use glint_core::{Affine3A, Mat3, Rgb, Vec2, Vec3};
 use glint_scene::scene::MAX_IMAGE_SIDE;
 use glint_scene::{
-    Attenuation, Camera, CloudObject, CubeFace, Fov, Light, Material, Mesh, Object, RenderDefaults, RenderMode, Scene,
-    Shape, Sky, Texture, TextureImage,
+    AnimationTarget, Attenuation, Camera, CloudObject, CubeFace, Fov, Keyframes, Light, Material, Mesh, Motion, Object,
+    RenderDefaults, RenderMode, Repeat, Rotation, Scene, Shape, Sky, Texture, TextureImage,
 };
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -153,11 +153,100 @@ impl Builder<'_> {
         for l in &def.light {
             let light = self.light(l)?;
             self.scene.lights.push(light);
+            if let Some(a) = &l.get_ref().animation {
+                let directional = matches!(light, Light::Directional { .. });
+                let motion = self.animation(a, directional)?;
+                self.animate(&[AnimationTarget::Light(self.scene.lights.len() - 1)], motion)?;
+            }
         }
         for (i, o) in def.object.iter().enumerate() {
             self.object(i + 1, o)?;
         }
+        // Animated scenes load as they are at t = 0.
+        self.scene.set_time(0.0);
         Ok(())
+    }
+
+    fn animate(&mut self, targets: &[AnimationTarget], motion: Motion) -> Result<(), FormatError> {
+        self.scene
+            .animate(targets, motion)
+            .map_err(|source| FormatError::Invalid { file: self.file.to_path_buf(), source })
+    }
+
+    /// `[object.animation]` or `[light.animation]`. A directional light has no position: it
+    /// can only turn, about no particular point.
+    fn animation(&self, a: &Spanned<AnimationDef>, directional: bool) -> Result<Motion, FormatError> {
+        let def = a.get_ref();
+        if def.rotate.is_none() && def.keyframes.is_none() {
+            return Err(self.missing(&a.span(), "an animation needs `rotate`, `keyframes` or both"));
+        }
+        let rotation = match &def.rotate {
+            Some(r) => {
+                let rd = r.get_ref();
+                let Some(axis) = &rd.axis else {
+                    return Err(self.missing(&r.span(), "`rotate` needs `axis` (a direction)"));
+                };
+                let Some(speed) = &rd.degrees_per_second else {
+                    return Err(self.missing(&r.span(), "`rotate` needs `degrees_per_second`"));
+                };
+                if directional && let Some(p) = &rd.pivot {
+                    return Err(
+                        self.err(&p.span(), "`pivot` does not apply to a directional light (it has no position)")
+                    );
+                }
+                Some(Rotation {
+                    axis: self.direction(axis, "axis")?,
+                    pivot: rd.pivot.as_ref().map(|p| p.get_ref().0),
+                    degrees_per_second: speed.get_ref().0,
+                    phase_deg: rd.phase_deg.as_ref().map_or(0.0, |p| p.get_ref().0),
+                })
+            }
+            None => None,
+        };
+        let translation = match &def.keyframes {
+            Some(ks) => {
+                if directional {
+                    return Err(self.err(
+                        &ks.span(),
+                        "a directional light has no position to move: `keyframes` do not apply (use `rotate`)",
+                    ));
+                }
+                if ks.get_ref().is_empty() {
+                    return Err(self.err(&ks.span(), "`keyframes` needs at least one key"));
+                }
+                let mut keys: Vec<(f32, Vec3)> = Vec::with_capacity(ks.get_ref().len());
+                for k in ks.get_ref() {
+                    let (Some(time), Some(offset)) = (&k.get_ref().time, &k.get_ref().offset) else {
+                        return Err(self.missing(&k.span(), "a key needs `time` (seconds) and `offset` ([x, y, z])"));
+                    };
+                    let t = time.get_ref().0;
+                    if let Some(&(previous, _)) = keys.last()
+                        && t <= previous
+                    {
+                        return Err(self.err(
+                            &time.span(),
+                            format!(
+                                "key time {t} must be after the previous key's ({previous}): times increase strictly"
+                            ),
+                        ));
+                    }
+                    keys.push((t, offset.get_ref().0));
+                }
+                let repeat = match def.repeat.as_ref().map(|r| *r.get_ref()) {
+                    Some(RepeatDef::Hold) => Repeat::Hold,
+                    Some(RepeatDef::Loop) | None => Repeat::Loop,
+                    Some(RepeatDef::PingPong) => Repeat::PingPong,
+                };
+                Some(Keyframes { keys, repeat })
+            }
+            None => {
+                if let Some(r) = &def.repeat {
+                    return Err(self.err(&r.span(), "`repeat` applies to `keyframes`, and there are none"));
+                }
+                None
+            }
+        };
+        Ok(Motion { rotation, translation })
     }
 
     fn render_defaults(&self, def: &SceneDef) -> Result<RenderDefaults, FormatError> {
@@ -692,6 +781,14 @@ impl Builder<'_> {
         };
         let keys = def.shape_keys();
         const TRANSFORM: [&str; 5] = ["translate", "rotate", "rotate_axis", "rotate_angle", "scale"];
+        let motion = match &def.animation {
+            Some(a) if kind == ObjectKind::Points => {
+                return Err(self.err(&a.span(), "point clouds cannot be animated (only spheres, planes and meshes)"));
+            }
+            Some(a) => Some(self.animation(a, false)?),
+            None => None,
+        };
+        let first = self.scene.objects.len();
         match kind {
             ObjectKind::Sphere => {
                 let allowed: Vec<&str> = ["centre", "radius"].into_iter().chain(TRANSFORM).collect();
@@ -824,6 +921,11 @@ impl Builder<'_> {
                 };
                 self.scene.clouds.push(CloudObject { name, cloud: Arc::new(cloud), material, world_from_object });
             }
+        }
+        if let Some(motion) = motion {
+            let targets: Vec<AnimationTarget> =
+                (first..self.scene.objects.len()).map(AnimationTarget::Object).collect();
+            self.animate(&targets, motion)?;
         }
         Ok(())
     }

@@ -581,3 +581,160 @@ fn fresnel_f0_is_read_and_checked() {
         assert_at(&e, line_of(&text, "f0"));
     }
 }
+
+/// BASE with an animation table under its sphere.
+fn animated(table: &str) -> String {
+    format!("{BASE}\n[object.animation]\n{table}\n")
+}
+
+#[test]
+fn object_animations_are_read() {
+    let text = animated(
+        "rotate = { axis = [0, 2, 0], degrees_per_second = 45, pivot = [0, 1, 0], phase_deg = 10 }\n\
+         keyframes = [\n  { time = 0, offset = [0, 0, 0] },\n  { time = 2, offset = [0, 1, 0] },\n]\n\
+         repeat = \"ping-pong\"",
+    );
+    let s = parse(&text).expect("valid animation").scene;
+    assert!(s.is_animated());
+    let a = &s.animations[0];
+    assert_eq!(a.target, glint_scene::AnimationTarget::Object(0));
+    assert_eq!(a.pivot, Vec3::Y);
+    let r = a.motion.rotation.expect("rotation");
+    assert_eq!((r.axis, r.pivot, r.degrees_per_second, r.phase_deg), (Vec3::Y, Some(Vec3::Y), 45.0, 10.0));
+    let k = a.motion.translation.as_ref().expect("keyframes");
+    assert_eq!(k.keys, vec![(0.0, Vec3::ZERO), (2.0, Vec3::Y)]);
+    assert_eq!(k.repeat, Repeat::PingPong);
+    // Loaded at t = 0: the phase already turns the sphere about the pivot (0, 1, 0).
+    assert_ne!(s.objects[0].world_from_object, Affine3A::IDENTITY);
+    for (word, want) in [("hold", Repeat::Hold), ("loop", Repeat::Loop), ("ping_pong", Repeat::PingPong)] {
+        let text = animated(&format!("keyframes = [{{ time = 1, offset = [0, 1, 0] }}]\nrepeat = \"{word}\""));
+        let s = parse(&text).expect("repeat").scene;
+        assert_eq!(s.animations[0].motion.translation.as_ref().expect("keys").repeat, want);
+        // One key: the sphere is offset by it from the start.
+        assert_eq!(s.objects[0].world_from_object, Affine3A::from_translation(Vec3::Y));
+    }
+    let text = animated("keyframes = [{ time = 0, offset = [0, 0, 0] }, { time = 1, offset = [1, 0, 0] }]");
+    let s = parse(&text).expect("default repeat").scene;
+    assert_eq!(s.animations[0].motion.translation.as_ref().expect("keys").repeat, Repeat::Loop);
+    assert!(s.animations[0].motion.rotation.is_none());
+}
+
+#[test]
+fn default_pivot_is_the_centre_of_the_object_and_planes_and_meshes_animate() {
+    let text = format!(
+        "{BASE}\n[[object]]\ntype = \"mesh\"\nvertices = [[0, 0, 0], [2, 0, 0], [0, 2, 0]]\ntriangles = [[0, 1, 2]]\n\
+         translate = [10, 0, 0]\n[object.animation]\nrotate = {{ axis = [0, 0, 1], degrees_per_second = 90 }}\n\
+         [[object]]\ntype = \"plane\"\nnormal = [0, 1, 0]\noffset = 1\n[object.animation]\n\
+         keyframes = [{{ time = 0, offset = [0, 0, 0] }}, {{ time = 1, offset = [0, 3, 0] }}]\n"
+    );
+    let mut s = parse(&text).expect("valid").scene;
+    assert_eq!(s.animations.len(), 2);
+    assert_eq!(s.animations[0].pivot, Vec3::new(11.0, 1.0, 0.0));
+    assert_eq!(s.animations[1].target, glint_scene::AnimationTarget::Object(2));
+    // Loop: at t = 0.5 the plane y = −1 has risen by 1.5.
+    s.set_time(0.5);
+    assert!(matches!(s.objects[2].shape, Shape::Plane { offset, .. } if (offset + 0.5).abs() < 1e-6));
+}
+
+#[test]
+fn light_animations_are_read() {
+    let text = format!(
+        "{BASE}\n[[light]]\ntype = \"point\"\nposition = [0, 5, 0]\n[light.animation]\n\
+         keyframes = [{{ time = 0, offset = [0, 0, 0] }}, {{ time = 1, offset = [2, 0, 0] }}]\nrepeat = \"hold\"\n\
+         [[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\n[light.animation]\n\
+         rotate = {{ axis = [1, 0, 0], degrees_per_second = 30 }}\n"
+    );
+    let mut s = parse(&text).expect("valid").scene;
+    assert_eq!(s.animations.len(), 2);
+    assert_eq!(s.animations[0].target, glint_scene::AnimationTarget::Light(0));
+    assert_eq!(s.animations[0].pivot, Vec3::new(0.0, 5.0, 0.0));
+    s.set_time(2.0);
+    assert_eq!(s.lights[0].position(), Some(Vec3::new(2.0, 5.0, 0.0)));
+    assert!(matches!(s.lights[1], Light::Directional { direction, .. } if (direction.y + 0.5).abs() < 1e-5));
+}
+
+#[test]
+fn bad_animation_values_are_reported_at_their_line() {
+    let k = |rest: &str| format!("keyframes = [\n  {{ time = 0, offset = [0, 0, 0] }},\n  {rest}\n]");
+    let cases: Vec<(String, &str, &str)> = vec![
+        ("spin = 1".into(), "spin", "spin"),
+        ("rotate = { axis = [0, 1, 0], degrees_per_second = 1, speed = 2 }".into(), "speed", "speed"),
+        ("rotate = { axis = [0, 0, 0], degrees_per_second = 1 }".into(), "rotate", "zero length"),
+        ("rotate = { axis = [0, 1], degrees_per_second = 1 }".into(), "rotate", "3 numbers"),
+        ("rotate = { axis = [0, 1, 0], degrees_per_second = nan }".into(), "rotate", "finite"),
+        ("rotate = { axis = [0, 1, 0], degrees_per_second = \"fast\" }".into(), "rotate", "fast"),
+        ("rotate = { axis = [0, 1, 0], degrees_per_second = 1, phase_deg = inf }".into(), "rotate", "finite"),
+        ("rotate = { axis = [0, 1, 0], degrees_per_second = 1, pivot = [0, nan, 0] }".into(), "rotate", "finite"),
+        ("rotate = { axis = [0, 1, 0] }".into(), "rotate", "degrees_per_second"),
+        ("rotate = { degrees_per_second = 1 }".into(), "rotate", "axis"),
+        ("rotate = [0, 1, 0]".into(), "rotate", "invalid type"),
+        ("keyframes = []".into(), "keyframes", "at least one key"),
+        (k("{ time = 0, offset = [1, 0, 0] }"), "time = 0, offset = [1", "increase strictly"),
+        (k("{ time = -1, offset = [1, 0, 0] }"), "time = -1", "increase strictly"),
+        (k("{ time = 1 }"), "time = 1", "offset"),
+        (k("{ offset = [1, 0, 0] }"), "{ offset", "time"),
+        (k("{ time = 1, offset = [1, inf, 0] }"), "time = 1", "finite"),
+        (k("{ time = 1, offset = [1, 0, 0], ease = 2 }"), "ease", "ease"),
+        (k("{ time = 1, offset = [1, 0] }"), "time = 1", "3 numbers"),
+        (format!("{}\nrepeat = \"bounce\"", k("{ time = 1, offset = [0, 1, 0] }")), "bounce", "bounce"),
+        ("rotate = { axis = [0, 1, 0], degrees_per_second = 1 }\nrepeat = \"loop\"".into(), "repeat", "repeat"),
+    ];
+    for (table, needle, message) in &cases {
+        let text = animated(table);
+        let e = error(&text);
+        assert!(e.to_string().contains(message), "{table}: {e}");
+        assert_at(&e, line_of(&text, needle));
+    }
+    // An empty table, and a value that is no table.
+    let e = error(&animated(""));
+    assert!(e.to_string().contains("`rotate`, `keyframes`"), "{e}");
+    assert!(e.to_string().starts_with("test.toml:"), "{e}");
+    let text = BASE.replace("radius = 1", "radius = 1\nanimation = 3");
+    assert_at(&error(&text), line_of(&text, "animation"));
+}
+
+#[test]
+fn point_clouds_and_directional_lights_limit_animations() {
+    let text = format!(
+        "{BASE}\n[[object]]\ntype = \"points\"\npath = \"scan.xyz\"\n[object.animation]\n\
+         rotate = {{ axis = [0, 1, 0], degrees_per_second = 10 }}\n"
+    );
+    let e = error(&text);
+    assert!(e.to_string().contains("point clouds cannot be animated"), "{e}");
+    assert_at(&e, line_of(&text, "[object.animation]"));
+    let directional = "[[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\n[light.animation]\n";
+    let text = format!("{BASE}\n{directional}keyframes = [{{ time = 0, offset = [0, 1, 0] }}]\n");
+    let e = error(&text);
+    assert!(e.to_string().contains("no position"), "{e}");
+    assert_at(&e, line_of(&text, "keyframes"));
+    let text =
+        format!("{BASE}\n{directional}rotate = {{ axis = [1, 0, 0], degrees_per_second = 10, pivot = [0, 1, 0] }}\n");
+    let e = error(&text);
+    assert!(e.to_string().contains("pivot"), "{e}");
+    assert_at(&e, line_of(&text, "rotate"));
+    let text = format!("{BASE}\n[[light]]\ntype = \"point\"\nposition = [0, 5, 0]\n[light.animation]\nwobble = 1\n");
+    assert_at(&error(&text), line_of(&text, "wobble"));
+}
+
+#[test]
+fn the_documented_animation_example_and_the_animated_scene_load() {
+    let doc = include_str!("../../../../docs/scene-format.md");
+    let section = &doc[doc.find("### Animations").expect("animation section")..];
+    let start = section.find("```toml\n").expect("example") + "```toml\n".len();
+    let example = &section[start..start + section[start..].find("```").expect("end of example")];
+    let l = parse(&format!("{BASE}\n{example}")).expect("the documented animation is valid");
+    assert_eq!(l.scene.animations.len(), 2);
+    let l = load(&Path::new(SCENES).join("animated.toml")).expect("the animated scene is valid");
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    let s = &l.scene;
+    assert_eq!(s.animations.len(), 3);
+    let mut moved = s.clone();
+    moved.set_time(1.0);
+    let object = |s: &Scene, name: &str| s.objects.iter().find(|o| o.name == name).expect("object").clone();
+    let (red, red_later) = (object(s, "red sphere"), object(&moved, "red sphere"));
+    let rise = Vec3::from(red_later.world_from_object.translation - red.world_from_object.translation);
+    assert!((rise - Vec3::new(0.0, 1.2, 0.0)).length() < 1e-6, "{rise}");
+    assert_ne!(object(s, "box").world_from_object, object(&moved, "box").world_from_object);
+    assert_ne!(s.lights[0], moved.lights[0]);
+    assert_eq!(s.lights[1], moved.lights[1]);
+}
