@@ -20,6 +20,9 @@ pub enum Command {
     /// Render a scene (.toml), a model file (.obj, .ply, .gltf, .glb) or a point cloud (.las,
     /// .laz, .ply, .xyz, .pts); the demo scene without one.
     Render(Box<RenderArgs>),
+    /// Open a window on a scene, model or point cloud (the demo scene without one) and render
+    /// it live: keys 1/2/3 switch Whitted / path / points, H lists every key (docs/viewer.md).
+    View(Box<ViewArgs>),
     /// Point clouds: sample a mesh into an oriented cloud.
     #[command(subcommand)]
     Points(PointsCommand),
@@ -83,6 +86,10 @@ pub struct RenderArgs {
     /// Seed of every random number in the render.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Show the scene's animations at this time, in seconds (default 0; see --time for the
+    /// path tracer's time budget).
+    #[arg(long = "scene-time", value_name = "SECONDS", allow_hyphen_values = true)]
+    pub scene_time: Option<f32>,
     /// Maximum ray depth (reflection/refraction bounces).
     #[arg(long = "max-depth")]
     pub max_depth: Option<u32>,
@@ -376,6 +383,10 @@ pub struct BenchViewArgs {
     /// Print every frame's time, not only the summary.
     #[arg(long = "per-frame")]
     pub per_frame: bool,
+    /// Lower the resolution while the camera moves, as the window does (default: every frame
+    /// at full size).
+    #[arg(long)]
+    pub adaptive: bool,
     #[arg(long)]
     pub threads: Option<usize>,
 }
@@ -570,4 +581,65 @@ pub struct CompareArgs {
     /// Print one JSON object instead of the table.
     #[arg(long)]
     pub json: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, ValueEnum)]
+pub enum CameraControlArg {
+    /// Turn around the content's centre (drag), zoom with the wheel.
+    #[default]
+    Orbit,
+    /// WASD + mouse look.
+    Fly,
+}
+
+/// The viewer's starting state; everything but the size, threads and seed can be changed with
+/// keys in the window.
+#[derive(Args, Debug, Clone)]
+pub struct ViewArgs {
+    /// Scene, model or point cloud; omitted: the built-in demo scene.
+    pub input: Option<PathBuf>,
+    /// Window size in pixels.
+    #[arg(long, default_value_t = 1280)]
+    pub width: u32,
+    #[arg(long, default_value_t = 720)]
+    pub height: u32,
+    /// Starting mode; default: the scene's, points for a point cloud.
+    #[arg(long, value_enum)]
+    pub mode: Option<ModeArg>,
+    /// Path mode: filter of the indirect light (key F cycles).
+    #[arg(long, value_enum, default_value = "guided")]
+    pub filter: FilterArg,
+    /// Path mode: samples per pixel per frame (keys - and =).
+    #[arg(long, default_value_t = 1)]
+    pub spp: u32,
+    /// Path mode: indirect bounces (keys [ and ]).
+    #[arg(long = "max-bounces", default_value_t = 1)]
+    pub max_bounces: u32,
+    /// Whitted: deepest reflection/refraction chain.
+    #[arg(long = "max-depth", default_value_t = 8)]
+    pub max_depth: u32,
+    /// Camera control (key C switches).
+    #[arg(long, value_enum, default_value = "orbit")]
+    pub camera: CameraControlArg,
+    /// Whitted passes / path samples per pixel after which a resting picture is final.
+    #[arg(long = "max-samples", default_value_t = 1024)]
+    pub max_samples: u32,
+    /// Draw at full resolution while the camera moves (default: lower it to keep 30 fps).
+    #[arg(long = "fixed-resolution")]
+    pub fixed_resolution: bool,
+    /// Folder for screenshots (key P: glint-view-NNN.png and .exr).
+    #[arg(long = "screenshot-dir", default_value = ".")]
+    pub screenshot_dir: PathBuf,
+    /// Close after this many frames (scripted runs).
+    #[arg(long)]
+    pub frames: Option<u64>,
+    /// On close, read the window back from the display and write it as PNG here.
+    #[arg(long)]
+    pub capture: Option<PathBuf>,
+    #[command(flatten)]
+    pub points: PointArgs,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    #[arg(long)]
+    pub threads: Option<usize>,
 }

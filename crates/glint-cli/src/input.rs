@@ -56,3 +56,16 @@ pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     }
     b.build().context("cannot start worker threads")
 }
+
+/// Make `threads` workers (all cores when None) rayon's global pool: for the viewer, whose
+/// window must stay on the main thread while frames are drawn by the pool.
+pub fn global_thread_pool(threads: Option<usize>) -> Result<()> {
+    let mut b = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        if n == 0 || n > 1024 {
+            bail!("--threads {n}: must be between 1 and 1024");
+        }
+        b = b.num_threads(n);
+    }
+    b.build_global().context("cannot start worker threads")
+}

@@ -1,8 +1,12 @@
-//! `glint bench view`: the viewer's frame loop, headless, end to end.
+//! The viewer end to end: `glint bench view` (the frame loop, headless) and `glint view` in a
+//! real window on a virtual X server (Xvfb, which .ci/install-deps installs).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 mod common;
-use common::{glint, scratch, shared, stderr};
+use common::{glint, repo, scratch, shared, stderr};
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
 
 #[test]
 fn the_headless_frame_loop_measures_every_mode() {
@@ -25,7 +29,7 @@ fn the_headless_frame_loop_measures_every_mode() {
         );
         assert!(o.status.success(), "{}", stderr(&o));
         let text = String::from_utf8(o.stdout).unwrap();
-        assert!(text.starts_with("Points") && text.contains("pull-push") && text.contains("Mpoints/s"), "{text}");
+        assert!(text.starts_with("points") && text.contains("pull-push") && text.contains("Mpoints/s"), "{text}");
         // The demo scene has no clouds for the points mode.
         let o = glint(&["bench", "view", "--mode", "points", "--frames", "1"], &dir);
         assert!(!o.status.success() && stderr(&o).contains("no point clouds"), "{}", stderr(&o));
@@ -35,6 +39,149 @@ fn the_headless_frame_loop_measures_every_mode() {
         args.extend_from_slice(bad);
         let o = glint(&args, &dir);
         assert!(!o.status.success(), "{bad:?} should fail");
+        assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+    }
+}
+
+/// An Xvfb server on a free display number, killed when dropped.
+struct Xvfb {
+    child: Child,
+    display: String,
+}
+
+impl Xvfb {
+    fn start() -> Xvfb {
+        // -displayfd: Xvfb picks a free display and writes its number once it accepts clients.
+        let mut child = Command::new("Xvfb")
+            .args(["-displayfd", "1", "-screen", "0", "1024x768x24", "-nolisten", "tcp"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("Xvfb runs (the window test needs it: .ci/install-deps installs the xvfb package)");
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).expect("Xvfb reports its display");
+        let n: u32 = line.trim().parse().unwrap_or_else(|_| panic!("Xvfb display number {line:?}"));
+        Xvfb { child, display: format!(":{n}") }
+    }
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Run glint with DISPLAY set, giving up (and failing) after `limit`.
+fn glint_on(display: &str, args: &[&str], dir: &std::path::Path, limit: Duration) -> std::process::Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_glint"))
+        .args(args)
+        .current_dir(dir)
+        .env("DISPLAY", display)
+        .env_remove("WAYLAND_DISPLAY")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            panic!("glint {args:?} did not finish within {limit:?}");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    child.wait_with_output().unwrap()
+}
+
+/// The real window: `glint view` opens it on Xvfb, draws a few frames and closes; the pixels
+/// read back from the X server are the scene (they match a `glint render` of the same view
+/// below the statistics box, to within the display's rounding), with the statistics drawn over its corner; not a blank or
+/// garbage frame.
+#[cfg(target_os = "linux")]
+#[test]
+fn the_window_shows_the_scene() {
+    let dir = scratch("view-window");
+    let x = Xvfb::start();
+    let scene = repo().join("scenes/whitted-bench.toml");
+    let scene = scene.to_str().unwrap();
+    let o = glint_on(
+        &x.display,
+        &[
+            "view",
+            scene,
+            "--width",
+            "320",
+            "--height",
+            "200",
+            "--frames",
+            "8",
+            "--max-samples",
+            "1",
+            "--capture",
+            "shot.png",
+        ],
+        &dir,
+        Duration::from_secs(120),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("captured"), "{}", stderr(&o));
+    let o = glint(&["render", scene, "--width", "320", "--height", "200", "-o", "ref.png"], &dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let shot = glint_image::read_image(&dir.join("shot.png")).unwrap();
+    let reference = glint_image::read_image(&dir.join("ref.png")).unwrap();
+    assert_eq!((shot.width, shot.height), (320, 200));
+    let bytes = |img: &glint_image::Image| glint_image::encode_srgb8(img, &glint_image::PngOptions::default()).unwrap();
+    let (a, b) = (bytes(&shot), bytes(&reference));
+    // Below the statistics box (6 lines of 11 px + margins at scale 1): the picture. With
+    // --max-samples 1 the window keeps the one-ray-per-pixel frame `glint render` draws; only
+    // the display's sRGB table (within one level of the exact encoding) differs.
+    let from = 80 * 320 * 3;
+    let mse = a[from..].iter().zip(&b[from..]).map(|(x, y)| (*x as f64 - *y as f64).powi(2)).sum::<f64>()
+        / (a.len() - from) as f64;
+    let psnr = 10.0 * (255.0f64 * 255.0 / mse.max(1e-9)).log10();
+    assert!(psnr > 45.0, "the window is not the scene: {psnr:.1} dB against the render");
+    // Not a flat frame: the sky, the floor's checks, the spheres.
+    let distinct: std::collections::HashSet<&[u8]> = a[from..].chunks(3).collect();
+    assert!(distinct.len() > 500, "{} colours", distinct.len());
+    // The statistics are drawn: pure white glyph pixels in the top-left box.
+    assert!(a[..40 * 320 * 3].chunks(3).any(|p| p == [255, 255, 255]));
+    // A display that cannot be opened: a clear error and a non-zero exit, no panic.
+    let o = glint_on(":9999", &["view", "--frames", "1"], &dir, Duration::from_secs(30));
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("cannot open a window") && !stderr(&o).contains("panicked"), "{}", stderr(&o));
+}
+
+/// Without any display the viewer refuses at once, naming the headless alternative; bad
+/// options fail before a window would open.
+#[test]
+fn the_viewer_fails_cleanly_without_a_display_or_with_bad_options() {
+    let dir = scratch("view-errors");
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_glint"))
+            .args(args)
+            .current_dir(&dir)
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .output()
+            .unwrap()
+    };
+    let o = run(&["view", "--frames", "1"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("no display") && stderr(&o).contains("bench view"), "{}", stderr(&o));
+    for (args, needle) in [
+        (&["view", "--width", "0"][..], "--width"),
+        (&["view", "--spp", "0"][..], "samples per pixel"),
+        (&["view", "--max-depth", "0"][..], "--max-depth"),
+        (&["view", "--frames", "0"][..], "--frames"),
+        (&["view", "--capture", "x.jpg"][..], "--capture"),
+        (&["view", "--screenshot-dir", "missing"][..], "--screenshot-dir"),
+        (&["view", "no-such-scene.toml"][..], "no-such-scene.toml"),
+        (&["view", "--mode", "points"][..], "no point clouds"),
+    ] {
+        let o = run(args);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(stderr(&o).contains(needle), "{args:?}: {}", stderr(&o));
         assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
     }
 }

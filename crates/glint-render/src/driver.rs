@@ -56,6 +56,32 @@ pub fn render_with_progress(
     settings: &RenderSettings,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<(Film, RenderStats), RenderError> {
+    render_pattern(world, settings, Pattern::Stratified, progress)
+}
+
+/// One pass of a progressive render: one sample per pixel (`samples_per_side` is ignored),
+/// through the pixel centre in pass 0 and at a hash-jittered position in pass k > 0, so the
+/// average of passes 0..N converges to the supersampled image and does not depend on how
+/// many threads drew them. The viewer adds passes while the camera rests.
+pub fn render_pass(world: &World, settings: &RenderSettings, pass: u32) -> Result<(Film, RenderStats), RenderError> {
+    render_pattern(world, &RenderSettings { samples_per_side: 1, ..*settings }, Pattern::Pass(pass), &|_| {})
+}
+
+/// Where a pixel's samples go.
+#[derive(Clone, Copy)]
+enum Pattern {
+    /// `samples_per_side`² stratified samples (one at the centre when that is 1).
+    Stratified,
+    /// One sample of progressive pass k.
+    Pass(u32),
+}
+
+fn render_pattern(
+    world: &World,
+    settings: &RenderSettings,
+    pattern: Pattern,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(Film, RenderStats), RenderError> {
     settings.validate()?;
     let start = Instant::now();
     let (w, h) = (settings.width as usize, settings.height as usize);
@@ -84,11 +110,14 @@ pub fn render_with_progress(
                     let pixel_index = (y * w + x) as u64;
                     let mut acc = PixelAccumulator::default();
                     for s in 0..n * n {
-                        let offset = if n == 1 {
-                            Vec2::splat(0.5)
-                        } else {
-                            let mut stream = SampleStream::new(pixel_index, s as u64, settings.seed);
-                            stratified_2d(s, n, stream.next_2d())
+                        let offset = match pattern {
+                            Pattern::Stratified if n == 1 => Vec2::splat(0.5),
+                            Pattern::Pass(0) => Vec2::splat(0.5),
+                            Pattern::Stratified => {
+                                let mut stream = SampleStream::new(pixel_index, s as u64, settings.seed);
+                                stratified_2d(s, n, stream.next_2d())
+                            }
+                            Pattern::Pass(k) => SampleStream::new(pixel_index, k as u64, settings.seed).next_2d(),
                         };
                         let ray = camera.ray(Vec2::new(x as f32, y as f32) + offset);
                         let cos = ray.dir.dot(forward);

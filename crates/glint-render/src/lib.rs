@@ -15,7 +15,7 @@ pub mod settings;
 pub mod whitted;
 pub mod world;
 
-pub use driver::{RenderStats, render, render_with_progress};
+pub use driver::{RenderStats, render, render_pass, render_with_progress};
 pub use error::RenderError;
 pub use film::{Film, FilmPixel};
 pub use path::{PathSettings, PathStats, render_path};

@@ -232,3 +232,70 @@ fn a_dark_scene_is_black() {
     let film = render(scene, 16, 16, &path(2, 2, Filter::Guided(GuidedParams::for_width(16))));
     assert!(film.pixels.iter().all(|p| p.colour == Rgb::ZERO));
 }
+
+/// The progressive accumulator: one pass of 1 spp is `render_path` at 1 spp, filtered or not,
+/// bit for bit; N unfiltered passes are `render_path` at N spp; the filtered accumulation
+/// converges to the same mean as the plain one; 1 and 2 threads agree.
+#[test]
+fn progressive_passes_match_render_path() {
+    use glint_render::path::PathAccumulator;
+    let text = include_str!("../../../scenes/cornell-box.toml");
+    let scene = glint_formats::load_scene_str(text, std::path::Path::new("../../scenes"), "cornell-box.toml")
+        .expect("scene")
+        .scene;
+    let world = World::new(scene);
+    let s = settings(48, 40);
+    let guided = Filter::Guided(GuidedParams::for_width(48));
+    for filter in [Filter::None, guided] {
+        let p = path(1, 2, filter);
+        let (reference, _) = render_path(&world, &s, &p, &|_| {}).expect("render");
+        let mut acc = PathAccumulator::new();
+        acc.add_pass(&world, &s, &p).expect("pass");
+        let mut film = Film::new(1, 1);
+        acc.resolve(&world, &filter, &mut film).expect("resolve");
+        let colours = |f: &Film| f.pixels.iter().map(|p| p.colour).collect::<Vec<_>>();
+        assert!(colours(&film) == colours(&reference), "{filter:?}: one pass differs from render_path");
+        assert!(film.pixels.iter().zip(&reference.pixels).all(|(a, b)| a.normal == b.normal && a.depth == b.depth));
+    }
+    // Eight passes without a filter: render_path at 8 spp.
+    let p = path(1, 2, Filter::None);
+    let mut acc = PathAccumulator::new();
+    for _ in 0..8 {
+        acc.add_pass(&world, &s, &p).expect("pass");
+    }
+    assert_eq!((acc.passes(), acc.samples_per_pixel()), (8, 8));
+    let mut film = Film::new(1, 1);
+    acc.resolve(&world, &Filter::None, &mut film).expect("resolve");
+    let (reference, _) = render_path(&world, &s, &path(8, 2, Filter::None), &|_| {}).expect("render");
+    assert!(film.pixels.iter().zip(&reference.pixels).all(|(a, b)| a.colour == b.colour), "8 passes != 8 spp");
+    // The filtered accumulation keeps the image's mean (the filter moves light, it does not
+    // make or lose it) and it is the same on 1 and 2 threads.
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            let mut acc = PathAccumulator::new();
+            for _ in 0..4 {
+                acc.add_pass(&world, &s, &p).expect("pass");
+            }
+            let mut film = Film::new(1, 1);
+            acc.resolve(&world, &guided, &mut film).expect("resolve");
+            film
+        })
+    };
+    let (a, b) = (run(1), run(2));
+    assert!(a.pixels == b.pixels, "1 and 2 threads differ");
+    let mean = |f: &Film| f.pixels.iter().map(|p| p.colour.x as f64).sum::<f64>() / f.pixels.len() as f64;
+    let plain = {
+        let mut acc = PathAccumulator::new();
+        for _ in 0..4 {
+            acc.add_pass(&world, &s, &p).expect("pass");
+        }
+        let mut film = Film::new(1, 1);
+        acc.resolve(&world, &Filter::None, &mut film).expect("resolve");
+        film
+    };
+    assert!((mean(&a) - mean(&plain)).abs() < 0.05 * mean(&plain), "{} vs {}", mean(&a), mean(&plain));
+    // A reset starts over.
+    acc.reset();
+    assert_eq!(acc.samples_per_pixel(), 0);
+}

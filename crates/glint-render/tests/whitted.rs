@@ -396,3 +396,36 @@ fn shadow_rays_walk_transparent_meshes_in_order() {
     let t = make(false, true).transmittance(&shadow);
     assert!((t - Rgb::splat(0.0625)).abs().max_element() < 1e-6, "{t}");
 }
+
+/// Progressive passes: pass 0 is the one-ray-per-pixel render bit for bit; the mean of 64
+/// passes approaches the 8×8 supersampled image (much closer than pass 0 alone); passes do not
+/// depend on the thread count.
+#[test]
+fn progressive_passes_converge_to_the_supersampled_image() {
+    let text = include_str!("../../../scenes/whitted-bench.toml");
+    let scene = glint_formats::load_scene_str(text, std::path::Path::new("."), "bench.toml").expect("scene").scene;
+    let world = World::new(scene);
+    let s = settings(64, 40);
+    let (single, _) = glint_render::render(&world, &s).expect("render");
+    let (pass0, _) = glint_render::render_pass(&world, &s, 0).expect("pass");
+    assert!(pass0.pixels == single.pixels, "pass 0 is the centre-sample render");
+    let (reference, _) = glint_render::render(&world, &RenderSettings { samples_per_side: 8, ..s }).expect("render");
+    let mut sum = vec![Rgb::ZERO; pass0.pixels.len()];
+    for k in 0..64 {
+        let (f, _) = glint_render::render_pass(&world, &s, k).expect("pass");
+        for (acc, p) in sum.iter_mut().zip(&f.pixels) {
+            *acc += p.colour;
+        }
+    }
+    let err = |c: &dyn Fn(usize) -> Rgb| {
+        reference.pixels.iter().enumerate().map(|(i, p)| (c(i) - p.colour).length_squared() as f64).sum::<f64>()
+    };
+    let e_mean = err(&|i| sum[i] / 64.0);
+    let e_single = err(&|i| pass0.pixels[i].colour);
+    assert!(e_mean < 0.25 * e_single, "64 passes {e_mean} vs one {e_single}");
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| glint_render::render_pass(&world, &s, 5).expect("pass").0)
+    };
+    assert!(run(1).pixels == run(2).pixels);
+}

@@ -1,12 +1,26 @@
-//! glint-view: the interactive viewer (issue 6). Everything here but the window itself runs
-//! headless: the camera controller (fly and orbit, speeds from the scene's size) turns input
-//! into a `glint_scene::Camera`, which the renderers draw like any other. `frame` draws one frame of
-//! any mode into a 0RGB pixel buffer with its timings (the loop the window and the headless
-//! benchmark share). The window (winit + softbuffer) comes next; see ARCHITECTURE.md.
+//! glint-view: the interactive viewer (issue 6). Data flows input → camera → frame → display →
+//! window:
+//! - `camera`: fly and orbit control (speeds from the scene's size) producing a
+//!   `glint_scene::Camera`, which the renderers draw like any other;
+//! - `frame`: the renderers of one scene, drawing a frame afresh or refining the one on screen
+//!   (Whitted supersampling passes, the path mode's filtered accumulation), with per-stage times;
+//! - `display`: the beauty or an AOV as 0RGB pixels, scaled up from a reduced resolution;
+//! - `overlay`: statistics and key help drawn as bitmap text;
+//! - `viewer`: the frame loop without a window — input and key actions in, the window's frame
+//!   out (the headless benchmark and the tests drive it);
+//! - `window`: winit + softbuffer around the viewer (the only part that needs a display).
 #![forbid(unsafe_code)]
 
 pub mod camera;
+pub mod display;
+pub mod error;
 pub mod frame;
+pub mod overlay;
+pub mod viewer;
+pub mod window;
 
 pub use camera::{CameraController, ControlMode, InputState};
-pub use frame::{FrameRenderer, FrameStats, ViewMode, ViewSettings};
+pub use display::{Display, display, to_pixels};
+pub use error::ViewError;
+pub use frame::{FilterKind, FrameRenderer, FrameStats, ViewMode, ViewSettings};
+pub use viewer::{Action, FrameOutcome, Viewer, ViewerOptions};

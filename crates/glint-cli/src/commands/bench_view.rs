@@ -1,17 +1,20 @@
 //! `glint bench view`: the viewer's frame loop without a window (issue 6). The camera orbits
-//! the content once over `--frames` frames, starting from the scene's view; every frame is drawn
-//! into the viewer's pixel buffer and timed, so frame rates are measured, not guessed.
+//! the content once over `--frames` frames, starting from the scene's view; every frame goes
+//! through the same `Viewer::frame` the window calls (render, channel, upscale, statistics
+//! text) and is timed, so frame rates are measured, not guessed. Full resolution by default;
+//! `--adaptive` measures the lowered resolution the window uses while the camera moves.
 
 use super::bench::median;
 use super::points::prepare_clouds;
 use super::render::filter_from_args;
+use super::view::{filter_kind, view_mode};
 use crate::cli::{BenchViewArgs, FilterOptions, ModeArg, PointArgs};
 use crate::input;
 use anyhow::{Context, Result, bail};
 use glint_core::Vec2;
 use glint_render::PathSettings;
 use glint_scene::RenderMode;
-use glint_view::{CameraController, ControlMode, FrameRenderer, InputState, ViewMode, ViewSettings};
+use glint_view::{ControlMode, InputState, ViewSettings, Viewer, ViewerOptions};
 use std::io::Write;
 
 pub fn run(args: &BenchViewArgs) -> Result<()> {
@@ -23,61 +26,70 @@ pub fn run(args: &BenchViewArgs) -> Result<()> {
     }
     let pool = input::thread_pool(args.threads)?;
     let mut scene = input::load(args.input.as_deref(), true)?;
-    let mode = match args.mode.unwrap_or(match scene.render.mode {
+    let mode = view_mode(args.mode.unwrap_or(match scene.render.mode {
         RenderMode::Whitted => ModeArg::Whitted,
         RenderMode::Path => ModeArg::Path,
         RenderMode::Points => ModeArg::Points,
-    }) {
-        ModeArg::Whitted => ViewMode::Whitted,
-        ModeArg::Path => ViewMode::Path,
-        ModeArg::Points => ViewMode::Points,
-    };
+    }));
     let mut settings = ViewSettings::new(args.width, args.height, mode);
-    settings.path = PathSettings {
-        spp: args.spp,
-        max_bounces: args.max_bounces,
-        filter: filter_from_args(args.filter, &FilterOptions::default(), args.width)?,
-        ..PathSettings::default()
-    };
+    settings.path = PathSettings { spp: args.spp, max_bounces: args.max_bounces, ..PathSettings::default() };
     settings.path.validate().context("path mode")?;
+    filter_from_args(args.filter, &FilterOptions::default(), args.width)?;
+    settings.filter = filter_kind(args.filter);
     pool.install(|| -> Result<()> {
         let point_args = PointArgs { neighbours: 16, radius_scale: 1.0, ..PointArgs::default() };
         prepare_clouds(&mut scene, &point_args, true)?;
-        let bounds = scene.bounds();
-        let mut camera = CameraController::new(&scene.camera, bounds, ControlMode::Orbit);
-        let mut renderer = FrameRenderer::new(scene)?;
-        // One full turn over the run.
+        let options = ViewerOptions {
+            width: args.width,
+            height: args.height,
+            mode: Some(mode),
+            control: ControlMode::Orbit,
+            settings: Some(settings),
+            adaptive: args.adaptive,
+            ..ViewerOptions::default()
+        };
+        let mut viewer = Viewer::new(scene, "bench", options)?;
+        // One full turn over the run, at 60 frames a second of scene time (animations play).
         let turn = std::f32::consts::TAU / args.frames as f32 / glint_view::camera::LOOK_PER_PIXEL;
-        let mut pixels = Vec::new();
+        let input = InputState { look: Vec2::new(turn, 0.0), ..InputState::default() };
         let mut totals = Vec::with_capacity(args.frames);
         let mut stages: Vec<(&'static str, Vec<f64>)> = Vec::new();
         let mut rates = Vec::with_capacity(args.frames);
+        let mut pixels_drawn = Vec::with_capacity(args.frames);
         let mut unit = "";
         for frame in 0..args.frames {
-            let stats = renderer.render(&camera.camera(), &settings, &mut pixels)?;
+            let start = std::time::Instant::now();
+            let outcome = viewer.frame(&input, 1.0 / 60.0)?.clone();
+            let total = start.elapsed().as_secs_f64() * 1e3;
+            let stats = outcome.stats;
+            let (rw, rh) = outcome.render_size;
+            // Everything after the render: channel, upscale, statistics text.
+            let display = (total - stats.total_ms).max(0.0);
             if args.per_frame {
                 let split: Vec<String> = stats.stages.iter().map(|(n, ms)| format!("{n} {ms:.2}")).collect();
-                out!("frame {frame}: {:.2} ms ({})", stats.total_ms, split.join(", "));
+                out!("frame {frame}: {total:.2} ms at {rw}x{rh} ({}, display {display:.2})", split.join(", "));
             }
-            totals.push(stats.total_ms);
+            totals.push(total);
             rates.push(stats.mrate);
+            pixels_drawn.push((rw * rh) as f64);
             unit = stats.rate_unit;
-            for (name, ms) in stats.stages {
+            for (name, ms) in stats.stages.into_iter().chain([("display", display)]) {
                 match stages.iter_mut().find(|(n, _)| *n == name) {
                     Some((_, v)) => v.push(ms),
                     None => stages.push((name, vec![ms])),
                 }
             }
-            camera.update(&InputState { look: Vec2::new(turn, 0.0), ..InputState::default() }, 1.0 / 60.0);
         }
         let mut sorted = totals.clone();
         let med = median(&mut sorted);
         let split: Vec<String> = stages.iter_mut().map(|(n, v)| format!("{n} {:.2}", median(v))).collect();
+        let scale = (args.width as f64 * args.height as f64 / median(&mut pixels_drawn)).sqrt();
         out!(
-            "{:?} {}x{}, {} frames on {} threads: median {med:.2} ms ({:.1} fps), min {:.2}, max {:.2}; stages (medians, ms): {}; {:.1} {unit}",
-            mode,
+            "{} {}x{}{}, {} frames on {} threads: median {med:.2} ms ({:.1} fps), min {:.2}, max {:.2}; stages (medians, ms): {}; {:.1} {unit}",
+            mode.name(),
             args.width,
             args.height,
+            if args.adaptive { format!(" (adaptive: median frame drawn at 1/{scale:.1} of the size)") } else { String::new() },
             args.frames,
             rayon::current_num_threads(),
             1e3 / med,

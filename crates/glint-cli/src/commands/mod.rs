@@ -17,6 +17,7 @@ mod filter;
 mod points;
 mod render;
 mod sky;
+mod view;
 
 use crate::cli::{Cli, Command, RenderArgs};
 use anyhow::Result;
@@ -30,5 +31,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Some(Command::Compare(args)) => compare::run(&args),
         Some(Command::Filter(args)) => filter::run(&args),
         Some(Command::Points(p)) => points::run(p),
+        Some(Command::View(args)) => view::run(&args),
     }
 }

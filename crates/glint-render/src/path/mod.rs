@@ -21,6 +21,7 @@ pub mod bsdf;
 pub mod integrator;
 pub mod lights;
 pub mod lookup;
+pub mod progressive;
 
 use crate::driver::BandStats;
 use crate::film::{Film, FilmPixel};
@@ -33,6 +34,7 @@ pub use glint_filter::Filter;
 use integrator::{CameraSample, IndirectMode, Integrator, PathParams};
 use lights::LightSet;
 use lookup::GuideMap;
+pub use progressive::PathAccumulator;
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
@@ -265,7 +267,9 @@ pub fn render_path(
         if filtered {
             // 2. Filter the guide rays' indirect light.
             let filter_start = Instant::now();
-            let filtered_indirect = filter_indirect(&guides, w, h, depth_scale, &path.filter)?;
+            let indirect: Vec<Rgb> = guides.iter().map(|g| g.sample.indirect).collect();
+            let geometry: Vec<_> = guides.iter().map(|g| g.sample.guide).collect();
+            let filtered_indirect = filter_indirect(&indirect, &geometry, w, h, depth_scale, &path.filter)?;
             stats.filter += filter_start.elapsed();
             // 3. Further samples read it through the geometry-aware lookup.
             let trace_start = Instant::now();
@@ -348,25 +352,25 @@ pub fn render_path(
     Ok((film, stats))
 }
 
-/// Filter the guide rays' demodulated indirect light, guided by their normals and depths.
-/// Depth is divided by the scene's diagonal (a constant of the scene, not of the view);
-/// pixels without a guide vertex get a zero normal and a depth one scene diagonal beyond the
-/// farthest guide.
+/// Filter demodulated indirect light (one value per pixel, used where the pixel has a guide
+/// vertex), guided by the guide vertices' normals and depths. Depth is divided by the scene's
+/// diagonal (a constant of the scene, not of the view); pixels without a guide vertex get a
+/// zero normal and a depth one scene diagonal beyond the farthest guide.
 fn filter_indirect(
-    guides: &[GuidePixel],
+    indirect: &[Rgb],
+    guides: &[Option<integrator::GuideGeometry>],
     width: usize,
     height: usize,
     depth_scale: f32,
     filter: &Filter,
 ) -> Result<Vec<Rgb>, RenderError> {
     let n = guides.len();
-    let far = guides.iter().filter_map(|g| g.sample.guide.map(|q| q.depth * depth_scale)).fold(0.0f32, f32::max) + 1.0;
+    let far = guides.iter().filter_map(|g| g.map(|q| q.depth * depth_scale)).fold(0.0f32, f32::max) + 1.0;
     let mut planes = [vec![0.0f32; n], vec![0.0; n], vec![0.0; n]];
     let mut normal = [vec![0.0f32; n], vec![0.0; n], vec![0.0; n]];
     let mut depth = vec![far; n];
-    for (i, g) in guides.iter().enumerate() {
-        if let Some(q) = g.sample.guide {
-            let ind = g.sample.indirect;
+    for (i, (g, ind)) in guides.iter().zip(indirect).enumerate() {
+        if let Some(q) = g {
             planes[0][i] = ind.x;
             planes[1][i] = ind.y;
             planes[2][i] = ind.z;

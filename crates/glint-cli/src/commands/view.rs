@@ -1,0 +1,88 @@
+//! `glint view`: the interactive viewer (glint-view) on a scene, model or point cloud.
+
+use super::points::{point_settings, prepare_clouds};
+use super::render::filter_from_args;
+use crate::cli::{CameraControlArg, FilterArg, ModeArg, ViewArgs};
+use crate::input;
+use anyhow::{Context, Result, bail};
+use glint_render::PathSettings;
+use glint_view::window::{self, WindowOptions};
+use glint_view::{ControlMode, FilterKind, ViewMode, ViewSettings, Viewer, ViewerOptions};
+
+pub fn view_mode(mode: ModeArg) -> ViewMode {
+    match mode {
+        ModeArg::Whitted => ViewMode::Whitted,
+        ModeArg::Path => ViewMode::Path,
+        ModeArg::Points => ViewMode::Points,
+    }
+}
+
+pub fn filter_kind(f: FilterArg) -> FilterKind {
+    match f {
+        FilterArg::Guided => FilterKind::Guided,
+        FilterArg::Atrous => FilterKind::Atrous,
+        FilterArg::Bilateral => FilterKind::Bilateral,
+        FilterArg::None => FilterKind::None,
+    }
+}
+
+pub fn run(args: &ViewArgs) -> Result<()> {
+    if !glint_scene::scene::image_size_ok(args.width, args.height) {
+        bail!("--width/--height {}x{}: not a window size glint renders", args.width, args.height);
+    }
+    if args.max_depth == 0 || args.max_depth > 64 {
+        bail!("--max-depth {}: must be 1..=64", args.max_depth);
+    }
+    if args.max_samples == 0 {
+        bail!("--max-samples 0: must be at least 1");
+    }
+    if args.frames == Some(0) {
+        bail!("--frames 0: must be at least 1");
+    }
+    if !args.screenshot_dir.is_dir() {
+        bail!("--screenshot-dir {}: not a folder", args.screenshot_dir.display());
+    }
+    // Checked before the window opens: nothing is half-written on a bad path.
+    if let Some(c) = &args.capture
+        && !c.extension().is_some_and(|e| e.eq_ignore_ascii_case("png"))
+    {
+        bail!("--capture {}: must be a .png file", c.display());
+    }
+    // The window's event loop must run on the main thread: the workers are the global pool.
+    input::global_thread_pool(args.threads)?;
+    let mut scene = input::load_with(args.input.as_deref(), args.points.colour_by, false)?;
+    let mut settings = ViewSettings::new(args.width, args.height, ViewMode::Whitted);
+    settings.path = PathSettings { spp: args.spp, max_bounces: args.max_bounces, ..PathSettings::default() };
+    settings.path.validate().context("path mode")?;
+    // Checks the filter's options as `glint render` does.
+    filter_from_args(args.filter, &Default::default(), args.width)?;
+    settings.filter = filter_kind(args.filter);
+    settings.max_depth = args.max_depth;
+    settings.points = point_settings(&args.points, args.width, args.height)?;
+    settings.seed = args.seed;
+    let title = args.input.as_ref().map_or("demo scene".to_string(), |p| p.display().to_string());
+    {
+        prepare_clouds(&mut scene, &args.points, false)?;
+        let options = ViewerOptions {
+            width: args.width,
+            height: args.height,
+            mode: args.mode.map(view_mode),
+            control: match args.camera {
+                CameraControlArg::Orbit => ControlMode::Orbit,
+                CameraControlArg::Fly => ControlMode::Fly,
+            },
+            settings: Some(settings),
+            screenshot_dir: args.screenshot_dir.clone(),
+            max_accumulation: args.max_samples,
+            adaptive: !args.fixed_resolution,
+        };
+        let viewer = Viewer::new(scene, &title, options)?;
+        let report = window::run(viewer, &title, WindowOptions { frames: args.frames, capture: args.capture.clone() })?;
+        if let Some(c) = &args.capture
+            && let Some((w, h)) = report.captured
+        {
+            eprintln!("glint: {} frames; window ({w}x{h}) captured to {}", report.frames, c.display());
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,217 @@
+//! Path tracing that refines from frame to frame (the viewer's path mode at rest).
+//!
+//! Each [`PathAccumulator::add_pass`] traces `spp` new samples per pixel, every one a full path
+//! whose diffuse indirect light at the guide vertex is kept *demodulated* (divided by the
+//! albedo there). [`PathAccumulator::resolve`] then filters the accumulated mean of that
+//! indirect light, guided by the first pass's normals and depths (traced through the pixel
+//! centres, so the guide does not flicker), and modulates it again by the mean albedo:
+//!
+//!   colour = mean(rest) + mean(albedo) ⊙ filter(mean(indirect)),
+//!
+//! the demodulate–filter–remodulate scheme of the paper's first step, run on an accumulation
+//! that gets less noisy with every pass (so the filter blurs less and less of what it sees; with
+//! the filter off the colour is the exact running average, `render_path` with N·spp samples).
+//! Sample k of pixel p uses the same hash stream as `render_path`'s sample k: the first pass's
+//! first sample goes through the centre, every other one is jittered, and the image is the same
+//! whatever the thread count.
+
+use super::integrator::{GuideGeometry, IndirectMode, Integrator, PathParams};
+use super::lights::LightSet;
+use super::{BAND_ROWS, Frame, PathSettings, PathStats, filter_indirect};
+use crate::driver::BandStats;
+use crate::film::{Film, FilmPixel};
+use crate::settings::RenderSettings;
+use crate::{RenderError, World};
+use glint_core::{Rgb, Vec3};
+use glint_filter::Filter;
+use rayon::prelude::*;
+use std::time::{Duration, Instant};
+
+/// Per-pixel sums over every sample of every pass.
+#[derive(Clone, Copy, Debug, Default)]
+struct Sums {
+    /// rest + albedo ⊙ indirect, sample by sample (the unfiltered beauty).
+    colour: Rgb,
+    rest: Rgb,
+    albedo: Rgb,
+    direct: Rgb,
+    indirect: Rgb,
+    /// Samples with a guide vertex (the ones whose indirect light counts).
+    guided: u32,
+    covered: u32,
+    samples: u32,
+}
+
+/// The running sums of a progressive path-traced image (see the module comment).
+#[derive(Clone, Debug, Default)]
+pub struct PathAccumulator {
+    width: u32,
+    height: u32,
+    passes: u32,
+    sums: Vec<Sums>,
+    /// The first pass's first sample of each pixel (through its centre): the filter's guide and
+    /// the normal/depth AOVs.
+    guides: Vec<Option<GuideGeometry>>,
+    centre_albedo: Vec<Rgb>,
+}
+
+impl PathAccumulator {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Forget every pass (the camera, the scene or a setting changed).
+    pub fn reset(&mut self) {
+        self.passes = 0;
+    }
+
+    /// Passes accumulated since the last reset.
+    pub fn passes(&self) -> u32 {
+        self.passes
+    }
+
+    /// Samples per pixel accumulated since the last reset.
+    pub fn samples_per_pixel(&self) -> u32 {
+        self.sums.first().map_or(0, |s| if self.passes == 0 { 0 } else { s.samples })
+    }
+
+    /// Trace `path.spp` more samples per pixel of the world's scene seen by its camera
+    /// (`path.filter` is not used here; the time budget is ignored). A new image size starts
+    /// over.
+    pub fn add_pass(
+        &mut self,
+        world: &World,
+        settings: &RenderSettings,
+        path: &PathSettings,
+    ) -> Result<PathStats, RenderError> {
+        settings.validate()?;
+        path.validate()?;
+        let start = Instant::now();
+        let (w, h) = (settings.width as usize, settings.height as usize);
+        if (settings.width, settings.height) != (self.width, self.height) || self.passes == 0 {
+            self.width = settings.width;
+            self.height = settings.height;
+            self.passes = 0;
+            self.sums.clear();
+            self.sums.resize(w * h, Sums::default());
+            self.guides.clear();
+            self.guides.resize(w * h, None);
+            self.centre_albedo.clear();
+            self.centre_albedo.resize(w * h, Rgb::ZERO);
+        }
+        let camera = world.scene.camera.rays(settings.width, settings.height);
+        let frame = Frame {
+            lights: LightSet::new(world),
+            camera,
+            params: PathParams {
+                max_bounces: path.max_bounces,
+                max_chain: settings.max_depth,
+                rr_start: path.rr_start,
+                clamp_indirect: path.clamp_indirect.unwrap_or(f32::INFINITY),
+                filter_area_direct: false,
+            },
+            settings: *settings,
+            centre_cone: 1.0 / (camera.focal_pixels * (path.spp as f32).sqrt()),
+            forward: world.scene.camera.forward.normalize(),
+            width: w,
+        };
+        let base = self.passes as u64 * path.spp as u64;
+        let first = self.passes == 0;
+        let band_len = w * BAND_ROWS;
+        let band_stats = self
+            .sums
+            .par_chunks_mut(band_len)
+            .zip(self.guides.par_chunks_mut(band_len))
+            .zip(self.centre_albedo.par_chunks_mut(band_len))
+            .enumerate()
+            .map(|(band, ((sums, guides), albedos))| {
+                let mut it = Integrator::new(world, &frame.lights, frame.params);
+                let mut rejected = 0;
+                for (k, a) in sums.iter_mut().enumerate() {
+                    let (x, y) = (k % w, band * BAND_ROWS + k / w);
+                    for s in 0..path.spp as u64 {
+                        let index = base + s;
+                        let (_, cs) = frame.sample(&mut it, x, y, index, index == 0, IndirectMode::Trace);
+                        a.samples += 1;
+                        if !cs.is_finite() {
+                            rejected += 1;
+                            continue;
+                        }
+                        if first && s == 0 {
+                            guides[k] = cs.guide;
+                            albedos[k] = cs.albedo;
+                        }
+                        a.colour += cs.rest + cs.albedo * cs.indirect;
+                        a.rest += cs.rest;
+                        a.albedo += cs.albedo;
+                        a.direct += cs.direct;
+                        if cs.guide.is_some() {
+                            a.indirect += cs.indirect;
+                            a.guided += 1;
+                        }
+                        a.covered += cs.covered as u32;
+                    }
+                }
+                BandStats { rays: it.counts, rejected }
+            })
+            .reduce(BandStats::default, BandStats::merge);
+        self.passes += 1;
+        let trace = start.elapsed();
+        Ok(PathStats {
+            rays: band_stats.rays,
+            rejected_samples: band_stats.rejected,
+            passes: 1,
+            samples_per_pixel: path.spp,
+            trace,
+            filter: Duration::ZERO,
+            elapsed: trace,
+        })
+    }
+
+    /// The image so far of the world's scene: filtered as `filter` says (see the module
+    /// comment), into `film` (resized). Returns the time the filter took. Nothing accumulated:
+    /// an empty film.
+    pub fn resolve(&self, world: &World, filter: &Filter, film: &mut Film) -> Result<Duration, RenderError> {
+        let (w, h) = (self.width as usize, self.height as usize);
+        if film.width != self.width || film.height != self.height {
+            *film = Film::new(self.width, self.height);
+        }
+        film.path_aovs = true;
+        if self.passes == 0 {
+            film.pixels.fill(FilmPixel::default());
+            return Ok(Duration::ZERO);
+        }
+        let mean_indirect: Vec<Rgb> =
+            self.sums.iter().map(|s| if s.guided == 0 { Rgb::ZERO } else { s.indirect / s.guided as f32 }).collect();
+        let start = Instant::now();
+        let filtered = match filter {
+            Filter::None => None,
+            f => {
+                let bounds = world.scene.bounds();
+                let depth_scale = if bounds.is_empty() { 1.0 } else { 1.0 / bounds.diagonal_length().max(1e-6) };
+                Some(filter_indirect(&mean_indirect, &self.guides, w, h, depth_scale, f)?)
+            }
+        };
+        let filter_time = start.elapsed();
+        film.pixels.par_iter_mut().enumerate().for_each(|(i, p)| {
+            let s = &self.sums[i];
+            let n = s.samples.max(1) as f32;
+            let guide = self.guides[i];
+            let (colour, indirect) = match &filtered {
+                None => (s.colour / n, mean_indirect[i]),
+                Some(f) => (s.rest / n + s.albedo / n * f[i], f[i]),
+            };
+            *p = FilmPixel {
+                colour,
+                normal: guide.map_or(Vec3::ZERO, |q| q.normal),
+                albedo: self.centre_albedo[i],
+                depth: guide.map_or(f32::INFINITY, |q| q.depth),
+                coverage: s.covered as f32 / n,
+                direct: s.direct / n,
+                indirect,
+                samples: s.samples as f32,
+            };
+        });
+        Ok(filter_time)
+    }
+}
