@@ -615,6 +615,10 @@ pub struct ViewArgs {
     /// Path mode: indirect bounces (keys [ and ]).
     #[arg(long = "max-bounces", default_value_t = 1)]
     pub max_bounces: u32,
+    /// Path mode: filter the diffuse light of area lights and the sky too (not only the
+    /// indirect light); point, spot and directional lights stay sharp.
+    #[arg(long = "filter-area-lights")]
+    pub filter_area_lights: bool,
     /// Whitted: deepest reflection/refraction chain.
     #[arg(long = "max-depth", default_value_t = 8)]
     pub max_depth: u32,

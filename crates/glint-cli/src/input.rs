@@ -45,27 +45,23 @@ pub fn parse_vec3(flag: &str, text: &str) -> Result<Vec3> {
     Ok(Vec3::from_array(v))
 }
 
+/// A rayon pool builder for `threads` workers (all cores when None), the count checked.
+fn pool_builder(threads: Option<usize>) -> Result<rayon::ThreadPoolBuilder> {
+    let b = rayon::ThreadPoolBuilder::new();
+    Ok(match threads {
+        Some(n) if n == 0 || n > 1024 => bail!("--threads {n}: must be between 1 and 1024"),
+        Some(n) => b.num_threads(n),
+        None => b,
+    })
+}
+
 /// A rayon pool with `threads` workers (all cores when None).
 pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
-    let mut b = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = threads {
-        if n == 0 || n > 1024 {
-            bail!("--threads {n}: must be between 1 and 1024");
-        }
-        b = b.num_threads(n);
-    }
-    b.build().context("cannot start worker threads")
+    pool_builder(threads)?.build().context("cannot start worker threads")
 }
 
 /// Make `threads` workers (all cores when None) rayon's global pool: for the viewer, whose
 /// window must stay on the main thread while frames are drawn by the pool.
 pub fn global_thread_pool(threads: Option<usize>) -> Result<()> {
-    let mut b = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = threads {
-        if n == 0 || n > 1024 {
-            bail!("--threads {n}: must be between 1 and 1024");
-        }
-        b = b.num_threads(n);
-    }
-    b.build_global().context("cannot start worker threads")
+    pool_builder(threads)?.build_global().context("cannot start worker threads")
 }

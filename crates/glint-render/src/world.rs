@@ -418,6 +418,27 @@ impl World {
         self.surface_hit(ray, found, t)
     }
 
+    /// [`World::intersect`] of 8 rays: one packet query where [`World::traces_packets`] (the
+    /// same hits bit for bit; coherent rays, e.g. neighbouring pixels, gain), else ray by ray.
+    pub fn intersect8(&self, rays: &[Ray; 8], out: &mut [Option<SurfaceHit>; 8]) {
+        match self.lone_mesh() {
+            Some(bvh) => {
+                let mut hits = [None; 8];
+                bvh.intersect8(rays, &mut hits);
+                for ((o, h), r) in out.iter_mut().zip(hits).zip(rays) {
+                    *o = h.and_then(|h| {
+                        self.surface_hit(r, Found::Instance { inst: 0, prim: h.prim, u: h.u, v: h.v }, h.t)
+                    });
+                }
+            }
+            None => {
+                for (o, r) in out.iter_mut().zip(rays) {
+                    *o = self.intersect(r);
+                }
+            }
+        }
+    }
+
     fn surface_hit(&self, ray: &Ray, found: Found, t: f32) -> Option<SurfaceHit> {
         match found {
             Found::None => None,
@@ -842,8 +863,8 @@ mod tests {
     }
 
     /// 8-ray queries equal the single-ray ones bit for bit, on the packet path (one mesh) and
-    /// on the looping path (a plane or a transform in the scene), for primary tiles and shadow
-    /// rays.
+    /// on the looping path (a plane or a transform in the scene), for primary tiles (distances
+    /// and whole surface hits) and shadow rays.
     #[test]
     fn eight_ray_queries_equal_single_rays() {
         let cases = [
@@ -870,7 +891,12 @@ mod tests {
                     });
                     let mut occ = [false; 8];
                     world.occluded8(&shadow, &mut occ);
+                    let mut hits = [None; 8];
+                    world.intersect8(&tile, &mut hits);
                     for i in 0..8 {
+                        // Debug prints each float's shortest round trip: equal text, equal bits.
+                        let hit = format!("{:?}", world.intersect(&tile[i]));
+                        assert_eq!(format!("{:?}", hits[i]), hit, "hit ({tx}, {ty}) lane {i}");
                         let want = world.hit_distance(&tile[i]);
                         assert_eq!(dist[i].map(f32::to_bits), want.map(f32::to_bits), "tile ({tx}, {ty}) lane {i}");
                         assert_eq!(occ[i], world.occluded(&shadow[i]), "shadow ({tx}, {ty}) lane {i}");

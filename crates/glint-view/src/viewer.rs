@@ -458,8 +458,8 @@ impl Viewer {
         let mut lines = vec![
             format!("{}  |  {}  {}x{}{reduced}  |  {what}", self.title, s.mode.name(), rw, rh),
             format!(
-                "{:.1} fps  {:.1} ms:  {}",
-                self.fps,
+                "{} fps  {:.1} ms:  {}",
+                if self.fps > 0.0 { format!("{:.1}", self.fps) } else { "-".into() },
                 o.stats.total_ms,
                 o.stats.stages.iter().map(|(n, ms)| format!("{n} {ms:.1}")).collect::<Vec<_>>().join("  ")
             ),

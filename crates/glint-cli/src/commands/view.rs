@@ -52,7 +52,12 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     input::global_thread_pool(args.threads)?;
     let mut scene = input::load_with(args.input.as_deref(), args.points.colour_by, false)?;
     let mut settings = ViewSettings::new(args.width, args.height, ViewMode::Whitted);
-    settings.path = PathSettings { spp: args.spp, max_bounces: args.max_bounces, ..PathSettings::default() };
+    settings.path = PathSettings {
+        spp: args.spp,
+        max_bounces: args.max_bounces,
+        filter_area_direct: args.filter_area_lights,
+        ..PathSettings::default()
+    };
     settings.path.validate().context("path mode")?;
     // Checks the filter's options as `glint render` does.
     filter_from_args(args.filter, &Default::default(), args.width)?;
@@ -60,7 +65,10 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     settings.max_depth = args.max_depth;
     settings.points = point_settings(&args.points, args.width, args.height)?;
     settings.seed = args.seed;
-    let title = args.input.as_ref().map_or("demo scene".to_string(), |p| p.display().to_string());
+    let title = match &args.input {
+        Some(p) => p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned()),
+        None => "demo scene".to_string(),
+    };
     {
         prepare_clouds(&mut scene, &args.points, false)?;
         let options = ViewerOptions {

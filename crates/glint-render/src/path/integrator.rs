@@ -136,17 +136,34 @@ impl<'a> Integrator<'a> {
         stream: &mut SampleStream,
         mode: IndirectMode,
     ) -> CameraSample {
+        let first = self.world.intersect(&primary);
+        self.camera_sample_from(primary, first, cone, depth_of, stream, mode)
+    }
+
+    /// [`Integrator::camera_sample`] given the primary ray's closest hit `first` (found by a
+    /// packet query: the same hit bit for bit).
+    pub fn camera_sample_from(
+        &mut self,
+        primary: Ray,
+        first: Option<SurfaceHit>,
+        cone: f32,
+        depth_of: impl Fn(Vec3) -> f32,
+        stream: &mut SampleStream,
+        mode: IndirectMode,
+    ) -> CameraSample {
         let mut out = CameraSample::default();
         let mut ray = primary;
         let mut throughput = Rgb::ONE;
         let mut depth = 0.0;
         for chain in 0..=self.params.max_chain {
-            if chain == 0 {
+            let found = if chain == 0 {
                 self.counts.primary += 1;
+                first
             } else {
                 self.counts.secondary += 1;
-            }
-            let Some(hit) = self.world.intersect(&ray) else {
+                self.world.intersect(&ray)
+            };
+            let Some(hit) = found else {
                 let sky = if chain == 0 {
                     self.world.sky().radiance_filtered(ray.dir, cone)
                 } else {

@@ -27,9 +27,10 @@ use crate::driver::BandStats;
 use crate::film::{Film, FilmPixel};
 use crate::settings::RenderSettings;
 use crate::whitted::RayCounts;
+use crate::world::SurfaceHit;
 use crate::{RenderError, World};
 use glint_core::random::SampleStream;
-use glint_core::{Rgb, Vec2, Vec3};
+use glint_core::{Ray, Rgb, Vec2, Vec3};
 pub use glint_filter::Filter;
 use integrator::{CameraSample, IndirectMode, Integrator, PathParams};
 use lights::LightSet;
@@ -157,6 +158,27 @@ struct Frame {
 }
 
 impl Frame {
+    /// The shared state of a pass over the world's scene seen by its camera. The diffuse
+    /// direct light of area lights and the sky joins the filtered part only when a filter runs.
+    fn new(world: &World, settings: &RenderSettings, path: &PathSettings) -> Frame {
+        let camera = world.scene.camera.rays(settings.width, settings.height);
+        Frame {
+            lights: LightSet::new(world),
+            camera,
+            params: PathParams {
+                max_bounces: path.max_bounces,
+                max_chain: settings.max_depth,
+                rr_start: path.rr_start,
+                clamp_indirect: path.clamp_indirect.unwrap_or(f32::INFINITY),
+                filter_area_direct: path.filter_area_direct && path.filtered(),
+            },
+            settings: *settings,
+            centre_cone: 1.0 / (camera.focal_pixels * (path.spp as f32).sqrt()),
+            forward: world.scene.camera.forward.normalize(),
+            width: settings.width as usize,
+        }
+    }
+
     /// Trace sample `sample` of pixel (x, y); sample 0 of a pass with a guide (or the very
     /// first sample) goes through the centre.
     fn sample(
@@ -168,15 +190,35 @@ impl Frame {
         centre: bool,
         mode: IndirectMode,
     ) -> (Vec2, CameraSample) {
+        let (pos, ray, mut stream) = self.camera_ray(x, y, sample, centre);
+        let first = it.world.intersect(&ray);
+        (pos, self.sample_from(it, ray, first, &mut stream, mode))
+    }
+
+    /// The image position and camera ray of sample `sample` of pixel (x, y), and the sample's
+    /// stream after the jitter (see [`Frame::sample`]).
+    #[inline]
+    fn camera_ray(&self, x: usize, y: usize, sample: u64, centre: bool) -> (Vec2, Ray, SampleStream) {
         let pixel = (y * self.width + x) as u64;
         let mut stream = SampleStream::new(pixel, sample, self.settings.seed);
         let offset = if centre { Vec2::splat(0.5) } else { stream.next_2d() };
         let pos = Vec2::new(x as f32, y as f32) + offset;
-        let ray = self.camera.ray(pos);
+        (pos, self.camera.ray(pos), stream)
+    }
+
+    /// The rest of [`Frame::sample`] given the camera ray's closest hit `first`.
+    #[inline]
+    fn sample_from(
+        &self,
+        it: &mut Integrator,
+        ray: Ray,
+        first: Option<SurfaceHit>,
+        stream: &mut SampleStream,
+        mode: IndirectMode,
+    ) -> CameraSample {
         let cos = ray.dir.dot(self.forward);
         let camera = &self.camera;
-        let s = it.camera_sample(ray, self.centre_cone * cos * cos.sqrt(), |p| camera.depth(p), &mut stream, mode);
-        (pos, s)
+        it.camera_sample_from(ray, first, self.centre_cone * cos * cos.sqrt(), |p| camera.depth(p), stream, mode)
     }
 }
 
@@ -191,23 +233,7 @@ pub fn render_path(
     path.validate()?;
     let start = Instant::now();
     let (w, h) = (settings.width as usize, settings.height as usize);
-    let camera = world.scene.camera.rays(settings.width, settings.height);
-    let spp_side = (path.spp as f32).sqrt();
-    let frame = Frame {
-        lights: LightSet::new(world),
-        camera,
-        params: PathParams {
-            max_bounces: path.max_bounces,
-            max_chain: settings.max_depth,
-            rr_start: path.rr_start,
-            clamp_indirect: path.clamp_indirect.unwrap_or(f32::INFINITY),
-            filter_area_direct: path.filter_area_direct && path.filtered(),
-        },
-        settings: *settings,
-        centre_cone: 1.0 / (camera.focal_pixels * spp_side),
-        forward: world.scene.camera.forward.normalize(),
-        width: w,
-    };
+    let frame = Frame::new(world, settings, path);
     let bounds = world.scene.bounds();
     let depth_scale = if bounds.is_empty() { 1.0 } else { 1.0 / bounds.diagonal_length().max(1e-6) };
 
@@ -267,9 +293,17 @@ pub fn render_path(
         if filtered {
             // 2. Filter the guide rays' indirect light.
             let filter_start = Instant::now();
-            let indirect: Vec<Rgb> = guides.iter().map(|g| g.sample.indirect).collect();
-            let geometry: Vec<_> = guides.iter().map(|g| g.sample.guide).collect();
-            let filtered_indirect = filter_indirect(&indirect, &geometry, w, h, depth_scale, &path.filter)?;
+            let mut buffers = FilterBuffers::default();
+            filter_indirect(
+                |i| guides[i].sample.indirect,
+                |i| guides[i].sample.guide,
+                w,
+                h,
+                depth_scale,
+                &path.filter,
+                &mut buffers,
+            )?;
+            let filtered_indirect: Vec<Rgb> = (0..w * h).map(|i| buffers.filtered(i)).collect();
             stats.filter += filter_start.elapsed();
             // 3. Further samples read it through the geometry-aware lookup.
             let trace_start = Instant::now();
@@ -352,36 +386,74 @@ pub fn render_path(
     Ok((film, stats))
 }
 
-/// Filter demodulated indirect light (one value per pixel, used where the pixel has a guide
-/// vertex), guided by the guide vertices' normals and depths. Depth is divided by the scene's
-/// diagonal (a constant of the scene, not of the view); pixels without a guide vertex get a
-/// zero normal and a depth one scene diagonal beyond the farthest guide.
+/// The planes [`filter_indirect`] fills and the filter writes into, kept between calls by a
+/// caller that filters every frame (fresh pages cost more than filling them).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct FilterBuffers {
+    indirect: [Vec<f32>; 3],
+    normal: [Vec<f32>; 3],
+    depth: Vec<f32>,
+    out: [Vec<f32>; 3],
+}
+
+impl FilterBuffers {
+    /// The filtered indirect light of pixel `i` (after [`filter_indirect`]).
+    #[inline]
+    pub(crate) fn filtered(&self, i: usize) -> Rgb {
+        Rgb::new(self.out[0][i], self.out[1][i], self.out[2][i])
+    }
+}
+
+/// Filter demodulated indirect light (`indirect(i)` for pixel i, used where the pixel has a
+/// guide vertex `guide(i)`), guided by the guide vertices' normals and depths, into
+/// `buffers` (read with [`FilterBuffers::filtered`]). Depth is divided by the scene's diagonal
+/// (a constant of the scene, not of the view); pixels without a guide vertex get a zero normal
+/// and a depth one scene diagonal beyond the farthest guide.
 fn filter_indirect(
-    indirect: &[Rgb],
-    guides: &[Option<integrator::GuideGeometry>],
+    indirect: impl Fn(usize) -> Rgb + Sync,
+    guide: impl Fn(usize) -> Option<integrator::GuideGeometry> + Sync,
     width: usize,
     height: usize,
     depth_scale: f32,
     filter: &Filter,
-) -> Result<Vec<Rgb>, RenderError> {
-    let n = guides.len();
-    let far = guides.iter().filter_map(|g| g.map(|q| q.depth * depth_scale)).fold(0.0f32, f32::max) + 1.0;
-    let mut planes = [vec![0.0f32; n], vec![0.0; n], vec![0.0; n]];
-    let mut normal = [vec![0.0f32; n], vec![0.0; n], vec![0.0; n]];
-    let mut depth = vec![far; n];
-    for (i, (g, ind)) in guides.iter().zip(indirect).enumerate() {
-        if let Some(q) = g {
-            planes[0][i] = ind.x;
-            planes[1][i] = ind.y;
-            planes[2][i] = ind.z;
-            normal[0][i] = q.normal.x;
-            normal[1][i] = q.normal.y;
-            normal[2][i] = q.normal.z;
-            depth[i] = q.depth * depth_scale;
-        }
+    buffers: &mut FilterBuffers,
+) -> Result<(), RenderError> {
+    let n = width * height;
+    let far = (0..n)
+        .into_par_iter()
+        .with_min_len(4096)
+        .filter_map(|i| guide(i).map(|q| q.depth * depth_scale))
+        .reduce(|| 0.0f32, f32::max)
+        + 1.0;
+    let FilterBuffers { indirect: planes, normal, depth, out } = buffers;
+    for v in planes.iter_mut().chain(normal.iter_mut()).chain([&mut *depth]).chain(out.iter_mut()) {
+        v.resize(n, 0.0);
     }
-    let guide = glint_filter::Guide { width, height, normal: [&normal[0], &normal[1], &normal[2]], depth: &depth };
-    let out = glint_filter::apply(filter, [&planes[0], &planes[1], &planes[2]], &guide)
-        .map_err(|e| RenderError::Filter(e.to_string()))?;
-    Ok((0..n).map(|i| Rgb::new(out[0][i], out[1][i], out[2][i])).collect())
+    let rows = width * 8;
+    let [p0, p1, p2] = &mut *planes;
+    let [n0, n1, n2] = &mut *normal;
+    p0.par_chunks_mut(rows)
+        .zip(p1.par_chunks_mut(rows))
+        .zip(p2.par_chunks_mut(rows))
+        .zip(n0.par_chunks_mut(rows))
+        .zip(n1.par_chunks_mut(rows))
+        .zip(n2.par_chunks_mut(rows))
+        .zip(depth.par_chunks_mut(rows))
+        .enumerate()
+        .for_each(|(band, ((((((p0, p1), p2), n0), n1), n2), d))| {
+            for k in 0..p0.len() {
+                let i = band * rows + k;
+                let (ind, nrm, z) = match guide(i) {
+                    Some(q) => (indirect(i), q.normal, q.depth * depth_scale),
+                    None => (Rgb::ZERO, Vec3::ZERO, far),
+                };
+                (p0[k], p1[k], p2[k]) = (ind.x, ind.y, ind.z);
+                (n0[k], n1[k], n2[k]) = (nrm.x, nrm.y, nrm.z);
+                d[k] = z;
+            }
+        });
+    let guide = glint_filter::Guide { width, height, normal: [&normal[0], &normal[1], &normal[2]], depth: &depth[..] };
+    let [o0, o1, o2] = &mut *out;
+    glint_filter::apply_into(filter, [&planes[0], &planes[1], &planes[2]], &guide, [o0, o1, o2])
+        .map_err(|e| RenderError::Filter(e.to_string()))
 }

@@ -14,10 +14,14 @@
 //! Sample k of pixel p uses the same hash stream as `render_path`'s sample k: the first pass's
 //! first sample goes through the centre, every other one is jittered, and the image is the same
 //! whatever the thread count.
+//!
+//! A viewer calls this every frame, so nothing is allocated per frame once the size is set: the
+//! first pass after a reset clears each pixel's sums as it traces it, and the filter's planes
+//! are kept between frames. The camera rays of eight neighbouring pixels are one packet query
+//! ([`World::intersect8`]: the same hits as one ray at a time).
 
-use super::integrator::{GuideGeometry, IndirectMode, Integrator, PathParams};
-use super::lights::LightSet;
-use super::{BAND_ROWS, Frame, PathSettings, PathStats, filter_indirect};
+use super::integrator::{GuideGeometry, IndirectMode, Integrator};
+use super::{BAND_ROWS, FilterBuffers, Frame, PathSettings, PathStats, filter_indirect};
 use crate::driver::BandStats;
 use crate::film::{Film, FilmPixel};
 use crate::settings::RenderSettings;
@@ -53,6 +57,8 @@ pub struct PathAccumulator {
     /// the normal/depth AOVs.
     guides: Vec<Option<GuideGeometry>>,
     centre_albedo: Vec<Rgb>,
+    /// The filter's planes, kept between frames.
+    filter_buffers: FilterBuffers,
 }
 
 impl PathAccumulator {
@@ -75,9 +81,11 @@ impl PathAccumulator {
         self.sums.first().map_or(0, |s| if self.passes == 0 { 0 } else { s.samples })
     }
 
-    /// Trace `path.spp` more samples per pixel of the world's scene seen by its camera
-    /// (`path.filter` is not used here; the time budget is ignored). A new image size starts
-    /// over.
+    /// Trace `path.spp` more samples per pixel of the world's scene seen by its camera (the
+    /// time budget is ignored). The filter is applied by [`PathAccumulator::resolve`]; here it
+    /// only decides, with `filter_area_direct`, whether area lights' diffuse direct light joins
+    /// the filtered part: pass the same filter to every pass and to `resolve`. A new image
+    /// size starts over.
     pub fn add_pass(
         &mut self,
         world: &World,
@@ -88,33 +96,17 @@ impl PathAccumulator {
         path.validate()?;
         let start = Instant::now();
         let (w, h) = (settings.width as usize, settings.height as usize);
-        if (settings.width, settings.height) != (self.width, self.height) || self.passes == 0 {
+        if (settings.width, settings.height) != (self.width, self.height) {
             self.width = settings.width;
             self.height = settings.height;
             self.passes = 0;
-            self.sums.clear();
+            // The first pass clears every pixel it traces (in parallel, while its sums are in
+            // cache), so only the sizes matter here.
             self.sums.resize(w * h, Sums::default());
-            self.guides.clear();
             self.guides.resize(w * h, None);
-            self.centre_albedo.clear();
             self.centre_albedo.resize(w * h, Rgb::ZERO);
         }
-        let camera = world.scene.camera.rays(settings.width, settings.height);
-        let frame = Frame {
-            lights: LightSet::new(world),
-            camera,
-            params: PathParams {
-                max_bounces: path.max_bounces,
-                max_chain: settings.max_depth,
-                rr_start: path.rr_start,
-                clamp_indirect: path.clamp_indirect.unwrap_or(f32::INFINITY),
-                filter_area_direct: false,
-            },
-            settings: *settings,
-            centre_cone: 1.0 / (camera.focal_pixels * (path.spp as f32).sqrt()),
-            forward: world.scene.camera.forward.normalize(),
-            width: w,
-        };
+        let frame = Frame::new(world, settings, path);
         let base = self.passes as u64 * path.spp as u64;
         let first = self.passes == 0;
         let band_len = w * BAND_ROWS;
@@ -127,29 +119,45 @@ impl PathAccumulator {
             .map(|(band, ((sums, guides), albedos))| {
                 let mut it = Integrator::new(world, &frame.lights, frame.params);
                 let mut rejected = 0;
-                for (k, a) in sums.iter_mut().enumerate() {
-                    let (x, y) = (k % w, band * BAND_ROWS + k / w);
+                let mut hits = [None; 8];
+                // Eight neighbouring pixels at a time: their camera rays are one packet query
+                // (the same hits as one by one; each pixel's samples keep their order).
+                for (g, group) in sums.chunks_mut(8).enumerate() {
+                    let k0 = g * 8;
+                    if first {
+                        group.fill(Sums::default());
+                        guides[k0..k0 + group.len()].fill(None);
+                        albedos[k0..k0 + group.len()].fill(Rgb::ZERO);
+                    }
                     for s in 0..path.spp as u64 {
                         let index = base + s;
-                        let (_, cs) = frame.sample(&mut it, x, y, index, index == 0, IndirectMode::Trace);
-                        a.samples += 1;
-                        if !cs.is_finite() {
-                            rejected += 1;
-                            continue;
+                        let mut cams: [_; 8] = std::array::from_fn(|j| {
+                            let k = k0 + j.min(group.len() - 1);
+                            frame.camera_ray(k % w, band * BAND_ROWS + k / w, index, index == 0)
+                        });
+                        world.intersect8(&cams.each_ref().map(|c| c.1), &mut hits);
+                        for (j, a) in group.iter_mut().enumerate() {
+                            let (_, ray, stream) = &mut cams[j];
+                            let cs = frame.sample_from(&mut it, *ray, hits[j], stream, IndirectMode::Trace);
+                            a.samples += 1;
+                            if !cs.is_finite() {
+                                rejected += 1;
+                                continue;
+                            }
+                            if first && s == 0 {
+                                guides[k0 + j] = cs.guide;
+                                albedos[k0 + j] = cs.albedo;
+                            }
+                            a.colour += cs.rest + cs.albedo * cs.indirect;
+                            a.rest += cs.rest;
+                            a.albedo += cs.albedo;
+                            a.direct += cs.direct;
+                            if cs.guide.is_some() {
+                                a.indirect += cs.indirect;
+                                a.guided += 1;
+                            }
+                            a.covered += cs.covered as u32;
                         }
-                        if first && s == 0 {
-                            guides[k] = cs.guide;
-                            albedos[k] = cs.albedo;
-                        }
-                        a.colour += cs.rest + cs.albedo * cs.indirect;
-                        a.rest += cs.rest;
-                        a.albedo += cs.albedo;
-                        a.direct += cs.direct;
-                        if cs.guide.is_some() {
-                            a.indirect += cs.indirect;
-                            a.guided += 1;
-                        }
-                        a.covered += cs.covered as u32;
                     }
                 }
                 BandStats { rays: it.counts, rejected }
@@ -171,7 +179,7 @@ impl PathAccumulator {
     /// The image so far of the world's scene: filtered as `filter` says (see the module
     /// comment), into `film` (resized). Returns the time the filter took. Nothing accumulated:
     /// an empty film.
-    pub fn resolve(&self, world: &World, filter: &Filter, film: &mut Film) -> Result<Duration, RenderError> {
+    pub fn resolve(&mut self, world: &World, filter: &Filter, film: &mut Film) -> Result<Duration, RenderError> {
         let (w, h) = (self.width as usize, self.height as usize);
         if film.width != self.width || film.height != self.height {
             *film = Film::new(self.width, self.height);
@@ -181,25 +189,37 @@ impl PathAccumulator {
             film.pixels.fill(FilmPixel::default());
             return Ok(Duration::ZERO);
         }
-        let mean_indirect: Vec<Rgb> =
-            self.sums.iter().map(|s| if s.guided == 0 { Rgb::ZERO } else { s.indirect / s.guided as f32 }).collect();
+        let mean_indirect = |s: &Sums| if s.guided == 0 { Rgb::ZERO } else { s.indirect / s.guided as f32 };
         let start = Instant::now();
         let filtered = match filter {
-            Filter::None => None,
+            Filter::None => false,
             f => {
                 let bounds = world.scene.bounds();
                 let depth_scale = if bounds.is_empty() { 1.0 } else { 1.0 / bounds.diagonal_length().max(1e-6) };
-                Some(filter_indirect(&mean_indirect, &self.guides, w, h, depth_scale, f)?)
+                let (sums, guides) = (&self.sums, &self.guides);
+                filter_indirect(
+                    |i| mean_indirect(&sums[i]),
+                    |i| guides[i],
+                    w,
+                    h,
+                    depth_scale,
+                    f,
+                    &mut self.filter_buffers,
+                )?;
+                true
             }
         };
         let filter_time = start.elapsed();
+        let buffers = &self.filter_buffers;
         film.pixels.par_iter_mut().enumerate().for_each(|(i, p)| {
             let s = &self.sums[i];
             let n = s.samples.max(1) as f32;
             let guide = self.guides[i];
-            let (colour, indirect) = match &filtered {
-                None => (s.colour / n, mean_indirect[i]),
-                Some(f) => (s.rest / n + s.albedo / n * f[i], f[i]),
+            let (colour, indirect) = if filtered {
+                let f = buffers.filtered(i);
+                (s.rest / n + s.albedo / n * f, f)
+            } else {
+                (s.colour / n, mean_indirect(s))
             };
             *p = FilmPixel {
                 colour,
