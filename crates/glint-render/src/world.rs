@@ -11,7 +11,8 @@
 
 use glint_accel::{BuildOptions, MeshBvh, SphereSet, Tlas, primitives};
 use glint_core::float::gamma;
-use glint_core::{Affine3A, Bounds3, Mat3, Ray, Rgb, Vec2, Vec3, float::offset_ray_origin};
+use glint_core::float::offset_ray_origin;
+use glint_core::{Affine3A, Bounds3, Mat3, Ray, Rgb, Vec2, Vec3};
 use glint_scene::{AnimationTarget, IrradianceSh, Light, Material, Mesh, Object, Scene, Shape, Sky, Texture};
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -56,9 +57,19 @@ impl Instance {
 struct Plane {
     normal: Vec3,
     offset: f32,
+    /// `Frame::from_z(normal)`'s tangents (the uv axes), kept so no hit recomputes them.
+    u_axis: Vec3,
+    v_axis: Vec3,
     object: u32,
     material: u32,
     opaque: bool,
+}
+
+impl Plane {
+    fn new(normal: Vec3, offset: f32, object: u32, material: u32, opaque: bool) -> Self {
+        let frame = glint_core::Frame::from_z(normal);
+        Self { normal, offset, u_axis: frame.x, v_axis: frame.y, object, material, opaque }
+    }
 }
 
 #[derive(Clone, Copy)]
@@ -137,6 +148,9 @@ pub struct World {
     blas: Vec<MeshBvh>,
     instances: Vec<Instance>,
     tlas: Tlas,
+    /// Whether the TLAS holds any instance (not when every instance is in the sphere set):
+    /// an empty one is not visited at all.
+    tlas_used: bool,
     /// Untransformed spheres, tested four at a time beside the TLAS (which then skips them).
     spheres: SphereSet,
     /// Instance index of each member of `spheres`.
@@ -175,7 +189,7 @@ fn object_curvature(o: &Object) -> f32 {
 }
 
 /// Split the instances between the sphere set and the top-level BVH.
-fn top_level(instances: &[Instance], blas: &[MeshBvh]) -> (Tlas, SphereSet, Vec<u32>) {
+fn top_level(instances: &[Instance], blas: &[MeshBvh]) -> (Tlas, bool, SphereSet, Vec<u32>) {
     let in_set = |inst: &Instance| inst.identity && matches!(inst.shape, InstanceShape::Sphere { .. });
     let count = instances.iter().filter(|i| in_set(i)).count();
     let use_set = count <= SPHERE_SET_LIMIT;
@@ -193,7 +207,8 @@ fn top_level(instances: &[Instance], blas: &[MeshBvh]) -> (Tlas, SphereSet, Vec<
             _ => instance_bounds(inst, blas),
         })
         .collect();
-    (Tlas::build(&boxes), SphereSet::new(&spheres), ids)
+    let used = boxes.iter().any(|b| !b.is_empty());
+    (Tlas::build(&boxes), used, SphereSet::new(&spheres), ids)
 }
 
 fn instance_bounds(inst: &Instance, blas: &[MeshBvh]) -> Bounds3 {
@@ -226,7 +241,7 @@ impl World {
             let (object, material) = (i as u32, o.material as u32);
             match o.shape {
                 Shape::Plane { normal, offset } => {
-                    planes.push(Plane { normal, offset, object, material, opaque: !transparent(o.material) });
+                    planes.push(Plane::new(normal, offset, object, material, !transparent(o.material)));
                     instance_of_object.push(None);
                 }
                 Shape::Sphere { centre, radius } => {
@@ -252,7 +267,7 @@ impl World {
                 }
             }
         }
-        let (tlas, spheres, sphere_instances) = top_level(&instances, &blas);
+        let (tlas, tlas_used, spheres, sphere_instances) = top_level(&instances, &blas);
         let any_transparent = scene.materials.iter().any(Material::is_transparent);
         let sky_irradiance = scene.sky_ambient.then(|| scene.sky.irradiance_sh());
         let curvature = scene.objects.iter().map(object_curvature).collect();
@@ -270,6 +285,7 @@ impl World {
             blas,
             instances,
             tlas,
+            tlas_used,
             spheres,
             sphere_instances,
             planes,
@@ -343,7 +359,7 @@ impl World {
         match (o.shape, self.instance_of_object.get(object).copied().flatten()) {
             (Shape::Plane { normal, offset }, _) => {
                 if let Some(p) = self.planes.iter_mut().find(|p| p.object as usize == object) {
-                    (p.normal, p.offset) = (normal, offset);
+                    *p = Plane::new(normal, offset, p.object, p.material, p.opaque);
                 }
                 false
             }
@@ -374,7 +390,7 @@ impl World {
     }
 
     fn rebuild_top_level(&mut self) {
-        (self.tlas, self.spheres, self.sphere_instances) = top_level(&self.instances, &self.blas);
+        (self.tlas, self.tlas_used, self.spheres, self.sphere_instances) = top_level(&self.instances, &self.blas);
     }
 
     pub fn sky(&self) -> &Sky {
@@ -528,7 +544,7 @@ impl World {
             tmax = t;
         }
         let ray = &Ray { tmax, ..*ray };
-        self.tlas.intersect(ray, |i, t_limit| {
+        let leaf = |i: u32, t_limit: f32| {
             let inst = &self.instances[i as usize];
             if transparent_only && inst.opaque {
                 return None;
@@ -549,7 +565,10 @@ impl World {
                     Some(h.t)
                 }
             }
-        });
+        };
+        if self.tlas_used {
+            self.tlas.intersect(ray, leaf);
+        }
         for (pi, p) in self.planes.iter().enumerate() {
             if transparent_only && p.opaque {
                 continue;
@@ -581,17 +600,20 @@ impl World {
         {
             return true;
         }
-        self.tlas.occluded(ray, |i| {
-            let inst = &self.instances[i as usize];
-            if opaque_only && !inst.opaque {
-                return false;
-            }
-            let r = if inst.identity { *ray } else { transform_ray(&inst.object_from_world, ray) };
-            match inst.shape {
-                InstanceShape::Sphere { centre, radius } => primitives::intersect_sphere(&r, centre, radius).is_some(),
-                InstanceShape::Mesh(m) => self.blas[m].occluded(&r),
-            }
-        })
+        self.tlas_used
+            && self.tlas.occluded(ray, |i| {
+                let inst = &self.instances[i as usize];
+                if opaque_only && !inst.opaque {
+                    return false;
+                }
+                let r = if inst.identity { *ray } else { transform_ray(&inst.object_from_world, ray) };
+                match inst.shape {
+                    InstanceShape::Sphere { centre, radius } => {
+                        primitives::intersect_sphere(&r, centre, radius).is_some()
+                    }
+                    InstanceShape::Mesh(m) => self.blas[m].occluded(&r),
+                }
+            })
     }
 
     /// Fraction of light that passes along a shadow ray: 0 behind an opaque object, reduced by
@@ -624,27 +646,28 @@ impl World {
             return Rgb::ZERO;
         }
         let mut walk = false;
-        let blocked = self.tlas.occluded(ray, |i| {
-            let inst = &self.instances[i as usize];
-            let r = if inst.identity { *ray } else { transform_ray(&inst.object_from_world, ray) };
-            match inst.shape {
-                InstanceShape::Sphere { centre, radius } => {
-                    let n = primitives::sphere_crossings(&r, centre, radius);
-                    if n > 0 && !inst.opaque {
-                        t *= self.material(inst.material).transparency.powi(n as i32);
+        let blocked = self.tlas_used
+            && self.tlas.occluded(ray, |i| {
+                let inst = &self.instances[i as usize];
+                let r = if inst.identity { *ray } else { transform_ray(&inst.object_from_world, ray) };
+                match inst.shape {
+                    InstanceShape::Sphere { centre, radius } => {
+                        let n = primitives::sphere_crossings(&r, centre, radius);
+                        if n > 0 && !inst.opaque {
+                            t *= self.material(inst.material).transparency.powi(n as i32);
+                        }
+                        n > 0 && inst.opaque
                     }
-                    n > 0 && inst.opaque
-                }
-                InstanceShape::Mesh(m) => {
-                    if inst.opaque {
-                        self.blas[m].occluded(&r)
-                    } else {
-                        walk |= self.blas[m].occluded(&r);
-                        false
+                    InstanceShape::Mesh(m) => {
+                        if inst.opaque {
+                            self.blas[m].occluded(&r)
+                        } else {
+                            walk |= self.blas[m].occluded(&r);
+                            false
+                        }
                     }
                 }
-            }
-        });
+            });
         if blocked || t < 1e-4 {
             return Rgb::ZERO;
         }
@@ -688,14 +711,13 @@ impl World {
         // Project onto the plane: what remains is error along the normal only.
         let position = raw - p.normal * (raw.dot(p.normal) + p.offset);
         let p_error = Vec3::splat(gamma(6) * (position.abs().max_element() + p.offset.abs()));
-        let frame = glint_core::Frame::from_z(p.normal);
         SurfaceHit {
             t,
             position,
             p_error,
             geometric_normal: p.normal,
             shading_normal: p.normal,
-            uv: Vec2::new(position.dot(frame.x), position.dot(frame.y)),
+            uv: Vec2::new(position.dot(p.u_axis), position.dot(p.v_axis)),
             material: p.material,
             object: p.object,
             prim: NO_PRIM,

@@ -326,3 +326,48 @@ impl ApplicationHandler for App {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::viewer::KEYS;
+
+    /// Every key the on-screen help lists does what it says, and movement keys are not
+    /// actions.
+    #[test]
+    fn keys_map_to_the_actions_the_help_lists() {
+        let expected = [
+            (KeyCode::Digit1, Action::Mode(ViewMode::Whitted)),
+            (KeyCode::Digit2, Action::Mode(ViewMode::Path)),
+            (KeyCode::Digit3, Action::Mode(ViewMode::Points)),
+            (KeyCode::KeyF, Action::CycleFilter),
+            (KeyCode::Minus, Action::FewerSamples),
+            (KeyCode::Equal, Action::MoreSamples),
+            (KeyCode::BracketLeft, Action::FewerBounces),
+            (KeyCode::BracketRight, Action::MoreBounces),
+            (KeyCode::Comma, Action::CoarserResolution),
+            (KeyCode::Period, Action::FinerResolution),
+            (KeyCode::KeyR, Action::ToggleAdaptive),
+            (KeyCode::KeyV, Action::CycleDisplay),
+            (KeyCode::KeyC, Action::ToggleCamera),
+            (KeyCode::Home, Action::ResetCamera),
+            (KeyCode::Space, Action::ToggleAnimation),
+            (KeyCode::KeyP, Action::Screenshot),
+            (KeyCode::F12, Action::Screenshot),
+            (KeyCode::Tab, Action::ToggleOverlay),
+            (KeyCode::KeyH, Action::ToggleHelp),
+            (KeyCode::Escape, Action::Quit),
+        ];
+        for (key, action) in expected {
+            assert_eq!(action_for(key), Some(action), "{key:?}");
+        }
+        for key in [KeyCode::KeyW, KeyCode::KeyA, KeyCode::KeyS, KeyCode::KeyD, KeyCode::KeyQ, KeyCode::KeyE] {
+            assert_eq!(action_for(key), None, "{key:?} moves the camera");
+        }
+        // The help names every key above.
+        let help: String = KEYS.iter().map(|(k, _)| *k).collect::<Vec<_>>().join(" ");
+        for name in ["1 2 3", "F", "- =", "[ ]", ", .", "R", "V", "C", "Home", "Space", "P F12", "Tab", "H", "Esc"] {
+            assert!(help.contains(name), "{name} missing from the help");
+        }
+    }
+}

@@ -167,26 +167,42 @@ impl Tracer {
         ns: Vec3,
     ) -> Rgb {
         let mut c = m.emission + world.ambient(ns) * albedo * m.ambient;
-        for light in &world.scene.lights {
-            let Some(ls) = light.sample_at(hit.position) else { continue };
-            let cos_l = ns.dot(ls.wi);
-            // Lights below the geometric surface are not seen, whatever the shading normal says.
-            if cos_l <= 0.0 || ng.dot(ls.wi) <= 0.0 {
-                continue;
+        // Lights in groups: every shadow ray of a group is set up before any is traced, so the
+        // (latency-bound) set-ups and traversals of different lights overlap; the group's
+        // contributions are then added in light order, as one light at a time would.
+        const GROUP: usize = 4;
+        for lights in world.scene.lights.chunks(GROUP) {
+            let mut rays = [None; GROUP];
+            for (slot, light) in rays.iter_mut().zip(lights) {
+                let Some(ls) = light.sample_at(hit.position) else { continue };
+                let cos_l = ns.dot(ls.wi);
+                // Lights below the geometric surface are not seen, whatever the shading normal says.
+                if cos_l <= 0.0 || ng.dot(ls.wi) <= 0.0 {
+                    continue;
+                }
+                let shadow = if ls.distance.is_finite() {
+                    hit.spawn_ray_to(hit.position + ls.wi * ls.distance)
+                } else {
+                    hit.spawn_ray(ls.wi)
+                };
+                *slot = Some((ls, cos_l, shadow));
             }
-            let shadow = if ls.distance.is_finite() {
-                hit.spawn_ray_to(hit.position + ls.wi * ls.distance)
-            } else {
-                hit.spawn_ray(ls.wi)
-            };
-            self.counts.shadow += 1;
-            let vis = world.transmittance(&shadow);
-            if vis == Rgb::ZERO {
-                continue;
+            for (ls, cos_l, shadow) in rays.into_iter().flatten() {
+                self.counts.shadow += 1;
+                let vis = world.transmittance(&shadow);
+                if vis == Rgb::ZERO {
+                    continue;
+                }
+                let r = reflect(-ls.wi, ns);
+                // R·V ≤ 0 gives 0^n = 0 for n > 0: no powf needed (bit for bit the same).
+                let r_dot_v = r.dot(wo);
+                let spec = if m.specular > 0.0 && (r_dot_v > 0.0 || m.shininess <= 0.0) {
+                    r_dot_v.max(0.0).powf(m.shininess) * m.specular
+                } else {
+                    0.0
+                };
+                c += vis * ls.radiance * (albedo * (m.diffuse * cos_l) + Rgb::splat(spec));
             }
-            let r = reflect(-ls.wi, ns);
-            let spec = if m.specular > 0.0 { r.dot(wo).max(0.0).powf(m.shininess) * m.specular } else { 0.0 };
-            c += vis * ls.radiance * (albedo * (m.diffuse * cos_l) + Rgb::splat(spec));
         }
         c
     }
