@@ -3,7 +3,7 @@
 
 use glint_core::Rgb;
 use glint_core::colour::linear_to_srgb;
-use glint_render::Film;
+use glint_render::{Film, PointFrame};
 use rayon::prelude::*;
 
 /// The channel on screen; the display key cycles through them.
@@ -80,21 +80,62 @@ pub fn to_pixels(colours: &[Rgb], pixels: &mut Vec<u32>) {
     });
 }
 
+/// What the display reads of one pixel.
+#[derive(Clone, Copy)]
+struct Aovs {
+    colour: Rgb,
+    normal: glint_core::Vec3,
+    albedo: Rgb,
+    depth: f32,
+    direct: Rgb,
+    indirect: Rgb,
+}
+
 /// `film`'s channel `what` as 0RGB words (film size).
 pub fn display(film: &Film, what: Display, pixels: &mut Vec<u32>) {
-    pixels.resize(film.pixels.len(), 0);
+    display_with(film.pixels.len(), what, pixels, |i| {
+        let p = &film.pixels[i];
+        Aovs {
+            colour: p.colour,
+            normal: p.normal,
+            albedo: p.albedo,
+            depth: p.depth,
+            direct: p.direct,
+            indirect: p.indirect,
+        }
+    });
+}
+
+/// A points-mode frame's channel `what` as 0RGB words, read from its own buffers (no film is
+/// built: at 1024×768 that would cost more than the shading). It has no direct and indirect
+/// light: those channels are black.
+pub fn display_points(frame: &PointFrame, what: Display, pixels: &mut Vec<u32>) {
+    display_with(frame.depth.len(), what, pixels, |i| Aovs {
+        colour: frame.colour[i],
+        normal: frame.normal[i],
+        albedo: frame.albedo[i],
+        depth: frame.depth[i],
+        direct: Rgb::ZERO,
+        indirect: Rgb::ZERO,
+    });
+}
+
+fn display_with(n: usize, what: Display, pixels: &mut Vec<u32>, at: impl Fn(usize) -> Aovs + Sync) {
+    pixels.resize(n, 0);
     let table = srgb_table();
     let (near, far) = match what {
-        Display::Depth => film
-            .pixels
-            .iter()
-            .filter(|p| p.depth.is_finite())
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), p| (a.min(p.depth), b.max(p.depth))),
+        Display::Depth => (0..n)
+            .into_par_iter()
+            .map(|i| at(i).depth)
+            .filter(|d| d.is_finite())
+            .fold(|| (f32::INFINITY, f32::NEG_INFINITY), |(a, b), d| (a.min(d), b.max(d)))
+            .reduce(|| (f32::INFINITY, f32::NEG_INFINITY), |(a, b), (c, d)| (a.min(c), b.max(d))),
         _ => (0.0, 1.0),
     };
     let range = (far - near).max(1e-12);
-    pixels.par_chunks_mut(4096).zip(film.pixels.par_chunks(4096)).for_each(|(out, ps)| {
-        for (o, p) in out.iter_mut().zip(ps) {
+    pixels.par_chunks_mut(4096).enumerate().for_each(|(chunk, out)| {
+        for (k, o) in out.iter_mut().enumerate() {
+            let p = at(chunk * 4096 + k);
             *o = match what {
                 Display::Beauty => srgb_word(table, p.colour),
                 Display::Albedo => srgb_word(table, p.albedo),

@@ -10,6 +10,7 @@
 //! Whitted and path frames trace the scene's objects; a points frame draws its clouds and lays
 //! traced objects over them by depth, as `glint render --mode points` does.
 
+use crate::display::{Display, display, display_points};
 use glint_filter::{AtrousParams, BilateralParams, Filter, GuidedParams};
 use glint_render::path::PathAccumulator;
 use glint_render::{
@@ -134,8 +135,12 @@ pub struct FrameRenderer {
     /// Whitted: the sum of the passes' colours.
     whitted_sum: Vec<glint_core::Rgb>,
     path: PathAccumulator,
-    /// Passes in `film` (0: nothing drawn yet).
+    /// Passes in the picture (0: nothing drawn yet).
     passes: u32,
+    /// The picture is `point_frame` (clouds alone), not `film`.
+    points_picture: bool,
+    /// `film` holds a copy of `point_frame` (made on demand).
+    film_synced: bool,
 }
 
 impl FrameRenderer {
@@ -153,6 +158,8 @@ impl FrameRenderer {
             whitted_sum: Vec::new(),
             path: PathAccumulator::new(),
             passes: 0,
+            points_picture: false,
+            film_synced: false,
         })
     }
 
@@ -182,19 +189,38 @@ impl FrameRenderer {
         }
     }
 
-    /// The picture so far (the render size; beauty + AOVs).
-    pub fn film(&self) -> &Film {
+    /// The picture so far as a film (the render size; beauty + AOVs). A points frame is
+    /// copied into the film only when asked (a screenshot): the display reads it directly.
+    pub fn film(&mut self) -> &Film {
+        if self.points_picture && !self.film_synced {
+            self.point_frame.write_film(&mut self.film);
+            self.film_synced = true;
+        }
         &self.film
+    }
+
+    /// The picture's size (the render size of the last frame).
+    pub fn size(&self) -> (u32, u32) {
+        match self.points_picture {
+            true => (self.point_frame.width, self.point_frame.height),
+            false => (self.film.width, self.film.height),
+        }
+    }
+
+    /// The picture's channel `what` as 0RGB words (its own size).
+    pub fn show(&self, what: Display, pixels: &mut Vec<u32>) {
+        match self.points_picture {
+            true => display_points(&self.point_frame, what, pixels),
+            false => display(&self.film, what, pixels),
+        }
     }
 
     /// Passes (Whitted) or samples per pixel (path) in the picture.
     pub fn accumulated(&self) -> u32 {
         match self.passes {
             0 => 0,
-            p => match self.film.path_aovs {
-                true => self.path.samples_per_pixel(),
-                false => p,
-            },
+            _ if !self.points_picture && self.film.path_aovs => self.path.samples_per_pixel(),
+            p => p,
         }
     }
 
@@ -208,7 +234,12 @@ impl FrameRenderer {
                 _ => "this scene has only point clouds: the ray-tracing modes have nothing to trace".into(),
             }));
         }
-        let size_changed = (self.film.width, self.film.height) != (settings.width, settings.height);
+        let size_changed = self.size() != (settings.width, settings.height);
+        if settings.mode != ViewMode::Points || !refine {
+            // Whatever is drawn next replaces the points picture (a refining points frame
+            // keeps it).
+            self.points_picture = false;
+        }
         let refine = refine && self.passes > 0 && !size_changed;
         let start = Instant::now();
         let render_settings = RenderSettings {
@@ -272,12 +303,16 @@ impl FrameRenderer {
                 stats.stages.push(("pull-push", s.pull_push_ms));
                 stats.stages.push(("shade", s.shade_ms));
                 stats.mrate = s.points_per_second() * 1e-6;
-                self.film = self.point_frame.to_film();
                 if let Some(world) = self.world.as_mut() {
+                    // Traced objects laid over the clouds by depth: in the film.
+                    self.point_frame.write_film(&mut self.film);
                     world.scene.camera = *camera;
                     let (meshes, s) = render_pass(world, &render_settings, 0)?;
                     stats.stages.push(("trace", s.elapsed.as_secs_f64() * 1e3));
                     self.film.composite_nearer(&meshes);
+                } else {
+                    self.points_picture = true;
+                    self.film_synced = false;
                 }
                 self.passes = 1;
             }
@@ -297,7 +332,7 @@ fn unreachable_mode() -> ! {
 pub(crate) mod tests {
     #![allow(clippy::unwrap_used, clippy::expect_used)]
     use super::*;
-    use crate::{CameraController, ControlMode, Display, InputState, display};
+    use crate::{CameraController, ControlMode, InputState};
     use glint_core::{Affine3A, Rgb, Vec2, Vec3};
     use glint_scene::{CloudObject, Light, Material, Object, PointCloud, Shape, Sky};
     use std::sync::Arc;
@@ -348,7 +383,7 @@ pub(crate) mod tests {
             let mut frames = Vec::new();
             for _ in 0..3 {
                 let stats = r.draw(&camera.camera(), &settings, false).unwrap();
-                display(r.film(), Display::Beauty, &mut pixels);
+                r.show(Display::Beauty, &mut pixels);
                 assert_eq!(pixels.len(), 64 * 48);
                 assert!(stats.total_ms > 0.0 && stats.mrate > 0.0, "{mode:?}: {stats:?}");
                 assert!(stats.stages.iter().all(|(_, ms)| ms.is_finite() && *ms >= 0.0));
@@ -390,6 +425,22 @@ pub(crate) mod tests {
         r.draw(&camera, &settings, false).unwrap();
         let s = r.draw(&camera, &settings, true).unwrap();
         assert!(s.stages.is_empty() && s.accumulated == 1);
+        // Clouds alone: the display reads the points frame; the film (screenshots) is the same
+        // picture, made on demand.
+        let mut clouds = scene.clone();
+        clouds.objects.clear();
+        let mut r = FrameRenderer::new(clouds).unwrap();
+        r.draw(&camera, &settings, false).unwrap();
+        let (mut shown, mut from_film) = (Vec::new(), Vec::new());
+        for what in Display::ALL {
+            r.show(what, &mut shown);
+            display(r.film(), what, &mut from_film);
+            assert_eq!(shown, from_film, "{what:?}");
+            if what == Display::Beauty {
+                assert!(shown.iter().collect::<std::collections::HashSet<_>>().len() > 3, "lit points and sky");
+            }
+        }
+        assert_eq!(r.size(), (48, 32));
     }
 
     #[test]

@@ -12,7 +12,7 @@
 
 use crate::ViewError;
 use crate::camera::{CameraController, ControlMode, InputState};
-use crate::display::{Display, display, upscale};
+use crate::display::{Display, upscale};
 use crate::frame::{FrameRenderer, FrameStats, ViewMode, ViewSettings};
 use crate::overlay;
 use glint_render::{Fill, path::MAX_BOUNCES as MAX_PATH_BOUNCES};
@@ -245,13 +245,12 @@ impl Viewer {
 
     /// The picture at rest is final: no frame needs drawing until something changes.
     pub fn is_idle(&self) -> bool {
-        let film = self.renderer.film();
         let animating = self.playing && self.renderer.scene().is_animated();
         !self.dirty
             && !animating
             && self.message.is_none()
             && self.final_picture()
-            && (film.width, film.height) == self.rest_size()
+            && self.renderer.size() == self.rest_size()
             && self.last_camera == Some(self.camera.camera())
     }
 
@@ -374,8 +373,7 @@ impl Viewer {
         let divisor = if moving && self.adaptive { self.moving_divisor(mode_index) } else { self.divisor };
         let (w, h) = self.size();
         let (rw, rh) = ((w / divisor).max(1), (h / divisor).max(1));
-        let film = self.renderer.film();
-        let restart = moving || self.dirty || self.last_camera != Some(camera) || (rw, rh) != (film.width, film.height);
+        let restart = moving || self.dirty || self.last_camera != Some(camera) || (rw, rh) != self.renderer.size();
         let settings = ViewSettings { width: rw, height: rh, ..self.settings.clone() };
         if !restart && self.final_picture() {
             self.last.drew = false;
@@ -419,13 +417,13 @@ impl Viewer {
 
     /// Compose the window's frame from the film: channel, upscale, statistics.
     fn redisplay(&mut self) {
-        let film = self.renderer.film();
-        display(film, self.display, &mut self.frame_pixels);
+        self.renderer.show(self.display, &mut self.frame_pixels);
+        let (fw, fh) = self.renderer.size();
         let (w, h) = (self.settings.width as usize, self.settings.height as usize);
-        if (film.width as usize, film.height as usize) == (w, h) {
+        if (fw as usize, fh as usize) == (w, h) {
             self.pixels.copy_from_slice(&self.frame_pixels);
         } else {
-            upscale(&self.frame_pixels, film.width as usize, film.height as usize, &mut self.pixels, w, h);
+            upscale(&self.frame_pixels, fw as usize, fh as usize, &mut self.pixels, w, h);
         }
         let mut lines = Vec::new();
         if self.show_stats {
@@ -488,7 +486,7 @@ impl Viewer {
 
     /// Write the picture: the beauty as PNG and every AOV as EXR, under the next free
     /// `glint-view-NNN` name in the screenshot folder (nothing is overwritten).
-    pub fn screenshot(&self) -> Result<(PathBuf, PathBuf), ViewError> {
+    pub fn screenshot(&mut self) -> Result<(PathBuf, PathBuf), ViewError> {
         let (png, exr) = next_free_names(&self.screenshot_dir)?;
         let film = self.renderer.film();
         glint_image::write_png(&png, &film.beauty_image(false), &glint_image::PngOptions::default())

@@ -172,8 +172,19 @@ impl PointFrame {
 
     /// The frame as a film: beauty, and the AOVs (normal, depth, albedo, coverage = alpha).
     pub fn to_film(&self) -> Film {
-        let mut film = Film::new(self.width, self.height);
-        for (i, p) in film.pixels.iter_mut().enumerate() {
+        let mut film = Film::new(1, 1);
+        self.write_film(&mut film);
+        film
+    }
+
+    /// [`PointFrame::to_film`] into an existing film (resized when its size differs), in
+    /// parallel: the viewer does this every frame and keeps the film's memory.
+    pub fn write_film(&self, film: &mut Film) {
+        if (film.width, film.height) != (self.width, self.height) {
+            *film = Film::new(self.width, self.height);
+        }
+        film.path_aovs = false;
+        film.pixels.par_iter_mut().enumerate().for_each(|(i, p)| {
             let hit = self.depth[i].is_finite();
             *p = FilmPixel {
                 colour: self.colour[i],
@@ -183,8 +194,7 @@ impl PointFrame {
                 coverage: if hit { 1.0 } else { 0.0 },
                 ..FilmPixel::default()
             };
-        }
-        film
+        });
     }
 }
 
