@@ -233,17 +233,22 @@ fn a_dark_scene_is_black() {
     assert!(film.pixels.iter().all(|p| p.colour == Rgb::ZERO));
 }
 
+/// The open Cornell box of scenes/cornell-box.toml (mesh from ../shared/data).
+fn cornell_box() -> World {
+    let text = include_str!("../../../scenes/cornell-box.toml");
+    let scene = glint_formats::load_scene_str(text, std::path::Path::new("../../scenes"), "cornell-box.toml")
+        .expect("scene")
+        .scene;
+    World::new(scene)
+}
+
 /// The progressive accumulator: one pass of 1 spp is `render_path` at 1 spp, filtered or not,
 /// bit for bit; N unfiltered passes are `render_path` at N spp; the filtered accumulation
 /// converges to the same mean as the plain one; 1 and 2 threads agree.
 #[test]
 fn progressive_passes_match_render_path() {
     use glint_render::path::PathAccumulator;
-    let text = include_str!("../../../scenes/cornell-box.toml");
-    let scene = glint_formats::load_scene_str(text, std::path::Path::new("../../scenes"), "cornell-box.toml")
-        .expect("scene")
-        .scene;
-    let world = World::new(scene);
+    let world = cornell_box();
     let s = settings(48, 40);
     let guided = Filter::Guided(GuidedParams::for_width(48));
     // With and without the area light's direct light in the filtered part.
@@ -308,11 +313,7 @@ fn progressive_passes_match_render_path() {
 #[test]
 fn progressive_pass_after_reset_or_resize_starts_clean() {
     use glint_render::path::PathAccumulator;
-    let text = include_str!("../../../scenes/cornell-box.toml");
-    let scene = glint_formats::load_scene_str(text, std::path::Path::new("../../scenes"), "cornell-box.toml")
-        .expect("scene")
-        .scene;
-    let world = World::new(scene);
+    let world = cornell_box();
     let s = settings(43, 21);
     let guided = Filter::Guided(GuidedParams::for_width(43));
     for (spp, filter) in [(1, guided), (3, Filter::None)] {
