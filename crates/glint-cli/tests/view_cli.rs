@@ -146,6 +146,50 @@ fn the_window_shows_the_scene() {
     assert!(distinct.len() > 500, "{} colours", distinct.len());
     // The statistics are drawn: pure white glyph pixels in the top-left box.
     assert!(a[..40 * 320 * 3].chunks(3).any(|p| p == [255, 255, 255]));
+    // Keys through the real window (xdotool sends them to it): 2 switches to the path mode,
+    // P writes a screenshot (the EXR then carries the path mode's AOVs), Esc quits cleanly.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_glint"))
+        .args(["view", scene, "--width", "160", "--height", "120"])
+        .current_dir(&dir)
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let xdotool = |args: &[&str]| {
+        let o = Command::new("xdotool")
+            .args(args)
+            .env("DISPLAY", &x.display)
+            .output()
+            .expect("xdotool runs (.ci/install-deps installs it)");
+        String::from_utf8_lossy(&o.stdout).trim().to_string()
+    };
+    let wait_for = |what: &str, done: &mut dyn FnMut() -> bool| {
+        let start = Instant::now();
+        while !done() {
+            assert!(start.elapsed() < Duration::from_secs(60), "timed out waiting for {what}");
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    };
+    let mut window = String::new();
+    wait_for("the window", &mut || {
+        window = xdotool(&["search", "--name", "^glint"]).lines().next().unwrap_or("").to_string();
+        !window.is_empty()
+    });
+    xdotool(&["windowfocus", &window]);
+    xdotool(&["key", "--window", &window, "2"]);
+    std::thread::sleep(Duration::from_millis(500));
+    xdotool(&["key", "--window", &window, "p"]);
+    let shot = dir.join("glint-view-001.exr");
+    wait_for("the screenshot", &mut || shot.exists() && dir.join("glint-view-001.png").exists());
+    xdotool(&["key", "--window", &window, "Escape"]);
+    wait_for("the viewer to quit", &mut || child.try_wait().unwrap().is_some());
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let aovs = glint_image::read_image(&shot).unwrap();
+    assert_eq!((aovs.width, aovs.height), (160, 120));
+    assert!(aovs.channel("Direct.R").is_some(), "key 2 did not switch to the path mode");
     // A display that cannot be opened: a clear error and a non-zero exit, no panic.
     let o = glint_on(":9999", &["view", "--frames", "1"], &dir, Duration::from_secs(30));
     assert!(!o.status.success());
