@@ -144,6 +144,8 @@ pub struct WorldStats {
 /// A scene made traceable.
 pub struct World {
     pub scene: Scene,
+    /// `scene.bounds()`, updated with the top level.
+    bounds: Bounds3,
     meshes: Vec<Arc<Mesh>>,
     blas: Vec<MeshBvh>,
     instances: Vec<Instance>,
@@ -280,6 +282,7 @@ impl World {
             build_ms: start.elapsed().as_secs_f64() * 1e3,
         };
         Self {
+            bounds: scene.bounds(),
             scene,
             meshes,
             blas,
@@ -391,6 +394,13 @@ impl World {
 
     fn rebuild_top_level(&mut self) {
         (self.tlas, self.tlas_used, self.spheres, self.sphere_instances) = top_level(&self.instances, &self.blas);
+        self.bounds = self.scene.bounds();
+    }
+
+    /// `scene.bounds()` as of the last change through this world's methods, kept so that a
+    /// frame does not walk every mesh vertex (the path mode reads it per frame).
+    pub fn bounds(&self) -> Bounds3 {
+        self.bounds
     }
 
     pub fn sky(&self) -> &Sky {
@@ -1018,6 +1028,9 @@ mod tests {
             let fresh = World::new(placed_directly(scene.clone(), t));
             assert_eq!(world.scene.objects, fresh.scene.objects, "t = {t}");
             assert_eq!(world.scene.lights, fresh.scene.lights, "t = {t}");
+            // The kept bounds follow the moves (the path mode's depth scale reads them).
+            assert_eq!(world.bounds(), fresh.bounds(), "t = {t}");
+            assert_eq!(world.bounds(), world.scene.bounds(), "t = {t}");
             let cam = world.scene.camera.rays(24, 16);
             for y in 0..16 {
                 for x in 0..24 {

@@ -63,7 +63,7 @@ pub struct LightSet {
 
 impl LightSet {
     pub fn new(world: &World) -> LightSet {
-        let bounds = world.scene.bounds();
+        let bounds = world.bounds();
         let radius = if bounds.is_empty() { 1.0 } else { (bounds.diagonal_length() * 0.5).max(1e-6) };
         let r2 = radius * radius;
         let mut entries = Vec::new();

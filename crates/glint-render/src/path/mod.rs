@@ -234,7 +234,7 @@ pub fn render_path(
     let start = Instant::now();
     let (w, h) = (settings.width as usize, settings.height as usize);
     let frame = Frame::new(world, settings, path);
-    let bounds = world.scene.bounds();
+    let bounds = world.bounds();
     let depth_scale = if bounds.is_empty() { 1.0 } else { 1.0 / bounds.diagonal_length().max(1e-6) };
 
     let mut acc = vec![Accum::default(); w * h];

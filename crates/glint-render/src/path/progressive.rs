@@ -194,7 +194,7 @@ impl PathAccumulator {
         let filtered = match filter {
             Filter::None => false,
             f => {
-                let bounds = world.scene.bounds();
+                let bounds = world.bounds();
                 let depth_scale = if bounds.is_empty() { 1.0 } else { 1.0 / bounds.diagonal_length().max(1e-6) };
                 let (sums, guides) = (&self.sums, &self.guides);
                 filter_indirect(
