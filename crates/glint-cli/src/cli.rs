@@ -1,6 +1,6 @@
 //! Command-line syntax (clap derive).
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::{Args, FromArgMatches, Parser, Subcommand, ValueEnum};
 use glint_formats::points::ColourBy;
 use std::path::PathBuf;
 
@@ -13,6 +13,17 @@ use std::path::PathBuf;
 pub struct Cli {
     #[command(subcommand)]
     pub command: Option<Command>,
+}
+
+/// A group of options as an empty command line gives it: clap's documented defaults, the one
+/// source of defaults. The binary without a subcommand and the benchmarks that borrow option
+/// groups take their settings from here, so they cannot drift from `--help`.
+///
+/// # Errors
+/// When the group has a required option (a programming error, reported rather than panicking).
+pub fn clap_defaults<T: Args + FromArgMatches>() -> Result<T, clap::Error> {
+    let command = T::augment_args(clap::Command::new("glint").no_binary_name(true));
+    T::from_arg_matches(&command.try_get_matches_from(std::iter::empty::<&str>())?)
 }
 
 #[derive(Subcommand, Debug)]
@@ -40,7 +51,7 @@ pub enum Command {
     Filter(FilterArgs),
 }
 
-#[derive(Args, Debug, Clone, Default)]
+#[derive(Args, Debug, Clone)]
 pub struct CameraArgs {
     /// Camera position "X,Y,Z" (overrides the scene's camera).
     #[arg(long, value_name = "X,Y,Z")]
@@ -56,7 +67,7 @@ pub struct CameraArgs {
     pub fov: Option<f32>,
 }
 
-#[derive(Args, Debug, Clone, Default)]
+#[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
     /// Scene or model file; omitted: the built-in demo scene.
     pub input: Option<PathBuf>,
@@ -120,7 +131,7 @@ pub enum ModeArg {
 }
 
 /// Points mode (DESIGN.md §3) and point-cloud preparation.
-#[derive(Args, Debug, Clone, Default)]
+#[derive(Args, Debug, Clone)]
 pub struct PointArgs {
     /// How holes between points are filled: ellipses (pull-push with elliptical box filters,
     /// the paper's method), pull-push (without ellipses), raw (one pixel per point), squares
@@ -230,7 +241,7 @@ pub enum GuideArg {
 }
 
 /// Filter settings shared by `glint render --mode path` and `glint filter`.
-#[derive(Args, Debug, Clone, Default)]
+#[derive(Args, Debug, Clone)]
 pub struct FilterOptions {
     /// Guided filter: guide channels.
     #[arg(long, value_enum, default_value = "4d")]
@@ -251,7 +262,7 @@ pub struct FilterOptions {
 }
 
 /// Path-mode options of `glint render`.
-#[derive(Args, Debug, Clone, Default)]
+#[derive(Args, Debug, Clone)]
 pub struct PathArgs {
     /// Path mode: image-space filter of the indirect light.
     #[arg(long, value_enum, default_value = "guided")]
@@ -294,7 +305,7 @@ pub struct FilterArgs {
 }
 
 /// Sky options of `glint render` (docs/skies.md).
-#[derive(Args, Debug, Clone, Default)]
+#[derive(Args, Debug, Clone)]
 pub struct SkyArgs {
     /// Sky image: a folder of six faces, a cross or strip, or a 2:1 lat-long map (PNG, JPEG,
     /// HDR, EXR). Replaces the scene's sky; a model rendered without a scene is then lit by it.

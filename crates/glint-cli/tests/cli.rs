@@ -8,7 +8,7 @@ mod common;
 use common::{assert_fails_cleanly, glint, scratch, shared, stderr};
 
 #[test]
-fn no_arguments_render_the_demo_to_glint_png() {
+fn render_without_a_scene_writes_the_demo_to_glint_png() {
     let d = scratch("demo");
     let o = glint(&["render", "--width", "64", "--height", "36", "-q"], &d);
     assert!(o.status.success(), "{}", stderr(&o));

@@ -3,9 +3,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 mod common;
-use common::{glint, repo, scratch, shared, stderr};
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
+use common::{Xvfb, glint, glint_on, repo, scratch, shared, stderr};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 #[test]
@@ -41,57 +40,6 @@ fn the_headless_frame_loop_measures_every_mode() {
         assert!(!o.status.success(), "{bad:?} should fail");
         assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
     }
-}
-
-/// An Xvfb server on a free display number, killed when dropped.
-struct Xvfb {
-    child: Child,
-    display: String,
-}
-
-impl Xvfb {
-    fn start() -> Xvfb {
-        // -displayfd: Xvfb picks a free display and writes its number once it accepts clients.
-        let mut child = Command::new("Xvfb")
-            .args(["-displayfd", "1", "-screen", "0", "1024x768x24", "-nolisten", "tcp"])
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("Xvfb runs (the window test needs it: .ci/install-deps installs the xvfb package)");
-        let mut line = String::new();
-        BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).expect("Xvfb reports its display");
-        let n: u32 = line.trim().parse().unwrap_or_else(|_| panic!("Xvfb display number {line:?}"));
-        Xvfb { child, display: format!(":{n}") }
-    }
-}
-
-impl Drop for Xvfb {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-/// Run glint with DISPLAY set, giving up (and failing) after `limit`.
-fn glint_on(display: &str, args: &[&str], dir: &std::path::Path, limit: Duration) -> std::process::Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_glint"))
-        .args(args)
-        .current_dir(dir)
-        .env("DISPLAY", display)
-        .env_remove("WAYLAND_DISPLAY")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed() > limit {
-            let _ = child.kill();
-            panic!("glint {args:?} did not finish within {limit:?}");
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    child.wait_with_output().unwrap()
 }
 
 /// The real window: `glint view` opens it on Xvfb, draws a few frames and closes; the pixels

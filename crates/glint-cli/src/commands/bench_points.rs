@@ -6,7 +6,7 @@
 //! it must cover some pixels and hold no NaN.
 
 use super::bench::median;
-use crate::cli::{BenchPointsArgs, PointArgs};
+use crate::cli::{BenchPointsArgs, PointArgs, clap_defaults};
 use crate::input;
 use anyhow::{Context, Result, bail};
 use glint_formats::points::PointReadOptions;
@@ -85,7 +85,7 @@ pub fn run(args: &BenchPointsArgs) -> Result<()> {
         out!("|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
         for name in &names {
             let mut scene = load_cloud(name, &args.data)?;
-            super::points::prepare_clouds(&mut scene, &PointArgs { neighbours: 16, radius_scale: 1.0, ..PointArgs::default() }, true)?;
+            super::points::prepare_clouds(&mut scene, &clap_defaults::<PointArgs>()?, true)?;
             let mut renderer = PointRenderer::new(&scene)?;
             for &side in &sizes {
                 for &fill in &fills {

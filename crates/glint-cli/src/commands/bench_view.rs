@@ -8,7 +8,7 @@ use super::bench::median;
 use super::points::prepare_clouds;
 use super::render::filter_from_args;
 use super::view::{filter_kind, view_mode};
-use crate::cli::{BenchViewArgs, FilterOptions, ModeArg, PointArgs};
+use crate::cli::{BenchViewArgs, FilterOptions, ModeArg, PointArgs, clap_defaults};
 use crate::input;
 use anyhow::{Context, Result, bail};
 use glint_core::Vec2;
@@ -34,10 +34,10 @@ pub fn run(args: &BenchViewArgs) -> Result<()> {
     let mut settings = ViewSettings::new(args.width, args.height, mode);
     settings.path = PathSettings { spp: args.spp, max_bounces: args.max_bounces, ..PathSettings::default() };
     settings.path.validate().context("path mode")?;
-    filter_from_args(args.filter, &FilterOptions::default(), args.width)?;
+    filter_from_args(args.filter, &clap_defaults::<FilterOptions>()?, args.width)?;
     settings.filter = filter_kind(args.filter);
     pool.install(|| -> Result<()> {
-        let point_args = PointArgs { neighbours: 16, radius_scale: 1.0, ..PointArgs::default() };
+        let point_args = clap_defaults::<PointArgs>()?;
         prepare_clouds(&mut scene, &point_args, true)?;
         let options = ViewerOptions {
             width: args.width,

@@ -19,12 +19,13 @@ mod render;
 mod sky;
 mod view;
 
-use crate::cli::{Cli, Command, RenderArgs};
+use crate::cli::{Cli, Command, RenderArgs, clap_defaults};
 use anyhow::Result;
 
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        None => render::run(&RenderArgs { output: "glint.png".into(), tonemap: "clamp".into(), ..Default::default() }),
+        // No subcommand: exactly `glint render` with no scene (the README's first command).
+        None => render::run(&clap_defaults::<RenderArgs>()?),
         Some(Command::Render(args)) => render::run(&args),
         Some(Command::Bench(b)) => bench::run(b),
         Some(Command::Sky(s)) => sky::run(s),

@@ -2,7 +2,7 @@
 
 use super::points::{point_settings, prepare_clouds};
 use super::render::filter_from_args;
-use crate::cli::{CameraControlArg, FilterArg, ModeArg, ViewArgs};
+use crate::cli::{CameraControlArg, FilterArg, FilterOptions, ModeArg, ViewArgs, clap_defaults};
 use crate::input;
 use anyhow::{Context, Result, bail};
 use glint_render::PathSettings;
@@ -60,7 +60,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     };
     settings.path.validate().context("path mode")?;
     // Checks the filter's options as `glint render` does.
-    filter_from_args(args.filter, &Default::default(), args.width)?;
+    filter_from_args(args.filter, &clap_defaults::<FilterOptions>()?, args.width)?;
     settings.filter = filter_kind(args.filter);
     settings.max_depth = args.max_depth;
     settings.points = point_settings(&args.points, args.width, args.height)?;

@@ -2,8 +2,10 @@
 
 #![allow(dead_code)] // each test file uses its own subset
 
+use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
 
 /// Runs `glint args` in `dir`.
 pub fn glint(args: &[&str], dir: &Path) -> Output {
@@ -52,4 +54,55 @@ pub fn assert_fails_keeping(args: &[&str], needle: &str, dir: &Path, kept: &str)
     assert!(msg.contains(needle), "{args:?}: message does not name {needle:?}: {msg}");
     assert!(!msg.contains("panicked"), "{args:?} panicked: {msg}");
     assert_eq!(std::fs::read(dir.join(kept)).expect("kept file"), b"precious", "{args:?} touched {kept}");
+}
+
+/// An Xvfb server on a free display number, killed when dropped.
+pub struct Xvfb {
+    child: Child,
+    pub display: String,
+}
+
+impl Xvfb {
+    pub fn start() -> Xvfb {
+        // -displayfd: Xvfb picks a free display and writes its number once it accepts clients.
+        let mut child = Command::new("Xvfb")
+            .args(["-displayfd", "1", "-screen", "0", "1024x768x24", "-nolisten", "tcp"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("Xvfb runs (the window test needs it: .ci/install-deps installs the xvfb package)");
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).expect("Xvfb reports its display");
+        let n: u32 = line.trim().parse().unwrap_or_else(|_| panic!("Xvfb display number {line:?}"));
+        Xvfb { child, display: format!(":{n}") }
+    }
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Run glint with DISPLAY set, giving up (and failing) after `limit`.
+pub fn glint_on(display: &str, args: &[&str], dir: &std::path::Path, limit: Duration) -> std::process::Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_glint"))
+        .args(args)
+        .current_dir(dir)
+        .env("DISPLAY", display)
+        .env_remove("WAYLAND_DISPLAY")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            panic!("glint {args:?} did not finish within {limit:?}");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    child.wait_with_output().unwrap()
 }
