@@ -3,6 +3,8 @@
 
 use super::*;
 use crate::test_util::TempDir;
+use buffers::decode_base64;
+use std::path::PathBuf;
 
 /// Two triangles (a quad in z = 0) as positions, uvs and u16 indices, packed into one buffer.
 fn quad_buffer() -> Vec<u8> {

@@ -18,7 +18,7 @@ use crate::model::{self, Model, file_name};
 use glint_core::{Vec2, Vec3};
 use glint_scene::{Material, Mesh};
 use mtl::MaterialLibrary;
-use std::collections::HashMap;
+use std::collections::{BTreeSet, HashMap};
 use std::hash::{BuildHasherDefault, Hasher};
 use std::path::Path;
 
@@ -150,213 +150,311 @@ fn parse_f32(w: &[u8]) -> Option<f32> {
 
 /// Parses OBJ bytes (`path` names them in messages and locates the MTL files).
 fn parse(path: &Path, data: &[u8]) -> Result<Model, FormatError> {
-    let name = file_name(path);
-    let dir = path.parent().unwrap_or(Path::new(""));
-    let mut b = Builder::default();
-    let mut warnings = Vec::new();
-    let mut library = MaterialLibrary::default();
-    let mut uses_materials = false;
-    let mut current_material = NONE;
-    let mut default_index = NONE;
-    let mut undefined = std::collections::BTreeSet::new();
-    let mut skipped = std::collections::BTreeSet::new();
-    let mut corners: Vec<u32> = Vec::with_capacity(8);
+    let mut parser = Parser::new(path);
     let mut joined = Vec::new();
     let mut lines = data.split(|&c| c == b'\n').enumerate();
     while let Some((i, raw)) = lines.next() {
-        let line_no = i + 1;
-        let mut line = raw.strip_suffix(b"\r").unwrap_or(raw);
-        // A trailing backslash continues the statement on the next line.
-        if line.ends_with(b"\\") {
-            joined.clear();
-            joined.extend_from_slice(&line[..line.len() - 1]);
-            for (_, next) in lines.by_ref() {
-                let next = next.strip_suffix(b"\r").unwrap_or(next);
-                joined.push(b' ');
-                match next.strip_suffix(b"\\") {
-                    Some(more) => joined.extend_from_slice(more),
-                    None => {
-                        joined.extend_from_slice(next);
-                        break;
-                    }
-                }
+        let line = logical_line(raw, &mut lines, &mut joined);
+        parser.statement(&At { path, line: i + 1 }, line)?;
+    }
+    parser.finish()
+}
+
+/// `raw` without its `\r`, joined with the lines that follow while it ends in a backslash (a
+/// trailing backslash continues the statement on the next line).
+fn logical_line<'a, 'b>(
+    raw: &'a [u8],
+    rest: &mut impl Iterator<Item = (usize, &'a [u8])>,
+    joined: &'b mut Vec<u8>,
+) -> &'b [u8]
+where
+    'a: 'b,
+{
+    let line = raw.strip_suffix(b"\r").unwrap_or(raw);
+    if !line.ends_with(b"\\") {
+        return line;
+    }
+    joined.clear();
+    joined.extend_from_slice(&line[..line.len() - 1]);
+    for (_, next) in rest {
+        let next = next.strip_suffix(b"\r").unwrap_or(next);
+        joined.push(b' ');
+        match next.strip_suffix(b"\\") {
+            Some(more) => joined.extend_from_slice(more),
+            None => {
+                joined.extend_from_slice(next);
+                break;
             }
-            line = &joined;
         }
-        let err = |message: String| FormatError::malformed(path, format!("line {line_no}"), message);
+    }
+    joined
+}
+
+/// Where a statement starts, for its error messages.
+struct At<'a> {
+    path: &'a Path,
+    line: usize,
+}
+
+impl At<'_> {
+    fn err(&self, message: String) -> FormatError {
+        FormatError::malformed(self.path, format!("line {}", self.line), message)
+    }
+
+    fn not_a_number(&self, w: &[u8]) -> FormatError {
+        self.err(format!("`{}` is not a number", String::from_utf8_lossy(w)))
+    }
+}
+
+/// One pass over an OBJ file: the mesh so far, the materials, and what to warn about.
+struct Parser<'a> {
+    path: &'a Path,
+    b: Builder,
+    warnings: Vec<String>,
+    library: MaterialLibrary,
+    /// A `usemtl` was met: every triangle gets a material from then on.
+    uses_materials: bool,
+    current_material: u32,
+    /// The default material's index in `library`, once some face needs it.
+    default_index: u32,
+    /// Materials named by `usemtl` but defined in no library.
+    undefined: BTreeSet<String>,
+    /// Statements of the specification that glint reads past.
+    skipped: BTreeSet<String>,
+    /// The current face's output vertices (kept to reuse its allocation).
+    corners: Vec<u32>,
+}
+
+impl<'a> Parser<'a> {
+    fn new(path: &'a Path) -> Self {
+        Self {
+            path,
+            b: Builder::default(),
+            warnings: Vec::new(),
+            library: MaterialLibrary::default(),
+            uses_materials: false,
+            current_material: NONE,
+            default_index: NONE,
+            undefined: BTreeSet::new(),
+            skipped: BTreeSet::new(),
+            corners: Vec::with_capacity(8),
+        }
+    }
+
+    /// One logical line of the file.
+    fn statement(&mut self, at: &At, line: &[u8]) -> Result<(), FormatError> {
         let mut words = line.split(|c| c.is_ascii_whitespace()).filter(|w| !w.is_empty());
-        let Some(keyword) = words.next() else { continue };
+        let Some(keyword) = words.next() else { return Ok(()) };
         if keyword[0] == b'#' {
-            continue;
+            return Ok(());
         }
         match keyword {
-            b"v" | b"vn" => {
-                let mut xyz = [0.0f32; 3];
-                for (k, c) in xyz.iter_mut().enumerate() {
-                    let Some(w) = words.next() else {
-                        return Err(err(format!(
-                            "`{}` needs 3 coordinates, found {k}",
-                            String::from_utf8_lossy(keyword)
-                        )));
-                    };
-                    *c =
-                        parse_f32(w).ok_or_else(|| err(format!("`{}` is not a number", String::from_utf8_lossy(w))))?;
-                    if !c.is_finite() {
-                        return Err(err(format!("coordinate `{}` is not finite", String::from_utf8_lossy(w))));
-                    }
-                }
-                // `v x y z w` and `v x y z r g b` carry extra numbers glint does not use; they
-                // must still be numbers.
-                for w in words {
-                    parse_f32(w).ok_or_else(|| err(format!("`{}` is not a number", String::from_utf8_lossy(w))))?;
-                }
-                if keyword == b"v" {
-                    b.positions.push(Vec3::from_array(xyz));
-                    b.by_position.push(NONE);
-                } else {
-                    let n = Vec3::from_array(xyz);
-                    b.normals.push(n.try_normalize().unwrap_or(Vec3::ZERO));
-                }
-            }
-            b"vt" => {
-                let mut uv = [0.0f32; 2];
-                let mut count = 0;
-                for w in words {
-                    let v =
-                        parse_f32(w).ok_or_else(|| err(format!("`{}` is not a number", String::from_utf8_lossy(w))))?;
-                    if !v.is_finite() {
-                        return Err(err(format!("texture coordinate `{v}` is not finite")));
-                    }
-                    if count < 2 {
-                        uv[count] = v;
-                    }
-                    count += 1;
-                }
-                if count == 0 || count > 3 {
-                    return Err(err(format!("`vt` needs 1 to 3 numbers, found {count}")));
-                }
-                b.texcoords.push(Vec2::from_array(uv));
-            }
-            b"f" | b"fo" => {
-                corners.clear();
-                for w in words {
-                    let mut parts = w.split(|&c| c == b'/');
-                    let bad = |what: &str, count: usize| {
-                        err(format!(
-                            "`{}`: {what} index is not a number in 1..={count} (or a negative relative index)",
-                            String::from_utf8_lossy(w)
-                        ))
-                    };
-                    let v = parts.next().unwrap_or(b"");
-                    let v = resolve(v, b.positions.len()).ok_or_else(|| bad("vertex", b.positions.len()))?;
-                    let vt = match parts.next() {
-                        None | Some(b"") => NONE,
-                        Some(t) => resolve(t, b.texcoords.len()).ok_or_else(|| bad("texture", b.texcoords.len()))?,
-                    };
-                    let vn = match parts.next() {
-                        None | Some(b"") => NONE,
-                        Some(n) => resolve(n, b.normals.len()).ok_or_else(|| bad("normal", b.normals.len()))?,
-                    };
-                    if parts.next().is_some() {
-                        return Err(err(format!(
-                            "`{}` is not a face corner (v, v/vt, v//vn or v/vt/vn)",
-                            String::from_utf8_lossy(w)
-                        )));
-                    }
-                    corners.push(b.vertex(v, vt, vn));
-                }
-                if corners.len() < 3 {
-                    return Err(err(format!("a face needs at least 3 corners, found {}", corners.len())));
-                }
-                for k in 1..corners.len() - 1 {
-                    b.triangles.push([corners[0], corners[k], corners[k + 1]]);
-                    if uses_materials {
-                        b.triangle_materials.push(current_material);
-                    }
-                }
-            }
-            b"mtllib" => {
-                let rest = rest_after(line, keyword);
-                let files: Vec<&str> = rest.split_ascii_whitespace().collect();
-                if files.is_empty() {
-                    return Err(err("`mtllib` names no file".into()));
-                }
-                // File names with spaces: try the whole rest of the line first.
-                let whole = rest.trim();
-                let names: Vec<&str> = if files.len() > 1 && dir.join(whole).is_file() { vec![whole] } else { files };
-                for f in names {
-                    let mtl_path = dir.join(f);
-                    match std::fs::read(&mtl_path) {
-                        Ok(text) => library.read(&mtl_path, &text, &mut warnings)?,
-                        Err(e) if e.kind() == std::io::ErrorKind::NotFound => warnings.push(format!(
-                            "{name}:{line_no}: material library {} not found; its materials are replaced by \
-                             the default material",
-                            mtl_path.display()
-                        )),
-                        Err(e) => return Err(FormatError::io(mtl_path, e)),
-                    }
-                }
-            }
+            b"v" | b"vn" => self.vector(at, keyword, words),
+            b"vt" => self.texcoord(at, words),
+            b"f" | b"fo" => self.face(at, words),
+            b"mtllib" => self.mtllib(at, &rest_after(line, keyword)),
             b"usemtl" => {
-                let m = rest_after(line, keyword);
-                let m = m.trim();
-                if !uses_materials {
-                    // Faces before the first `usemtl` get the default material.
-                    uses_materials = true;
-                    let d = default_material(&mut library, &mut default_index);
-                    b.triangle_materials = vec![d; b.triangles.len()];
-                }
-                current_material = match library.by_name.get(m) {
-                    Some(&i) => i as u32,
-                    None => {
-                        undefined.insert(m.to_string());
-                        default_material(&mut library, &mut default_index)
-                    }
-                };
+                self.usemtl(rest_after(line, keyword).trim());
+                Ok(())
             }
-            b"o" | b"g" => {}
+            b"o" | b"g" => Ok(()),
             other => {
                 let k = String::from_utf8_lossy(other).into_owned();
-                if SKIPPED.contains(&k.as_str()) {
-                    skipped.insert(k);
-                } else {
-                    return Err(err(format!("unknown statement `{k}`")));
+                if !SKIPPED.contains(&k.as_str()) {
+                    return Err(at.err(format!("unknown statement `{k}`")));
                 }
+                self.skipped.insert(k);
+                Ok(())
             }
         }
     }
-    skipped.remove("s");
-    if !skipped.is_empty() {
-        let list: Vec<String> = skipped.into_iter().collect();
-        warnings.push(format!("{name}: ignored statements glint does not render: {}", list.join(", ")));
+
+    /// `v x y z` (a position) or `vn x y z` (a normal, normalised; zero if it has no length).
+    fn vector<'w>(
+        &mut self,
+        at: &At,
+        keyword: &[u8],
+        mut words: impl Iterator<Item = &'w [u8]>,
+    ) -> Result<(), FormatError> {
+        let mut xyz = [0.0f32; 3];
+        for (k, c) in xyz.iter_mut().enumerate() {
+            let Some(w) = words.next() else {
+                return Err(at.err(format!("`{}` needs 3 coordinates, found {k}", String::from_utf8_lossy(keyword))));
+            };
+            *c = parse_f32(w).ok_or_else(|| at.not_a_number(w))?;
+            if !c.is_finite() {
+                return Err(at.err(format!("coordinate `{}` is not finite", String::from_utf8_lossy(w))));
+            }
+        }
+        // `v x y z w` and `v x y z r g b` carry extra numbers glint does not use; they
+        // must still be numbers.
+        for w in words {
+            parse_f32(w).ok_or_else(|| at.not_a_number(w))?;
+        }
+        if keyword == b"v" {
+            self.b.positions.push(Vec3::from_array(xyz));
+            self.b.by_position.push(NONE);
+        } else {
+            let n = Vec3::from_array(xyz);
+            self.b.normals.push(n.try_normalize().unwrap_or(Vec3::ZERO));
+        }
+        Ok(())
     }
-    if !undefined.is_empty() {
-        let list: Vec<String> = undefined.into_iter().collect();
-        warnings.push(format!(
-            "{name}: materials not defined in any material library (the default is used): {}",
-            list.join(", ")
-        ));
+
+    /// `vt u [v [w]]`: glint keeps u and v.
+    fn texcoord<'w>(&mut self, at: &At, words: impl Iterator<Item = &'w [u8]>) -> Result<(), FormatError> {
+        let mut uv = [0.0f32; 2];
+        let mut count = 0;
+        for w in words {
+            let v = parse_f32(w).ok_or_else(|| at.not_a_number(w))?;
+            if !v.is_finite() {
+                return Err(at.err(format!("texture coordinate `{v}` is not finite")));
+            }
+            if count < 2 {
+                uv[count] = v;
+            }
+            count += 1;
+        }
+        if count == 0 || count > 3 {
+            return Err(at.err(format!("`vt` needs 1 to 3 numbers, found {count}")));
+        }
+        self.b.texcoords.push(Vec2::from_array(uv));
+        Ok(())
     }
-    if b.out_positions.len() > NONE as usize {
-        return Err(FormatError::limits(path, "more vertices than glint can index"));
+
+    /// `f v/vt/vn …`: a polygon, split into a fan of triangles.
+    fn face<'w>(&mut self, at: &At, words: impl Iterator<Item = &'w [u8]>) -> Result<(), FormatError> {
+        self.corners.clear();
+        for w in words {
+            let corner = self.corner(at, w)?;
+            self.corners.push(corner);
+        }
+        let corners = &self.corners;
+        if corners.len() < 3 {
+            return Err(at.err(format!("a face needs at least 3 corners, found {}", corners.len())));
+        }
+        for k in 1..corners.len() - 1 {
+            self.b.triangles.push([corners[0], corners[k], corners[k + 1]]);
+            if self.uses_materials {
+                self.b.triangle_materials.push(self.current_material);
+            }
+        }
+        Ok(())
     }
-    let mesh = assemble(path, b);
-    let meshes = if mesh.triangles.is_empty() { Vec::new() } else { vec![mesh] };
-    Ok(Model { meshes, materials: library.materials, textures: library.textures, warnings })
+
+    /// One face corner `v`, `v/vt`, `v//vn` or `v/vt/vn`, as an output vertex.
+    fn corner(&mut self, at: &At, w: &[u8]) -> Result<u32, FormatError> {
+        let b = &mut self.b;
+        let mut parts = w.split(|&c| c == b'/');
+        let bad = |what: &str, count: usize| {
+            at.err(format!(
+                "`{}`: {what} index is not a number in 1..={count} (or a negative relative index)",
+                String::from_utf8_lossy(w)
+            ))
+        };
+        let v = parts.next().unwrap_or(b"");
+        let v = resolve(v, b.positions.len()).ok_or_else(|| bad("vertex", b.positions.len()))?;
+        let vt = match parts.next() {
+            None | Some(b"") => NONE,
+            Some(t) => resolve(t, b.texcoords.len()).ok_or_else(|| bad("texture", b.texcoords.len()))?,
+        };
+        let vn = match parts.next() {
+            None | Some(b"") => NONE,
+            Some(n) => resolve(n, b.normals.len()).ok_or_else(|| bad("normal", b.normals.len()))?,
+        };
+        if parts.next().is_some() {
+            return Err(
+                at.err(format!("`{}` is not a face corner (v, v/vt, v//vn or v/vt/vn)", String::from_utf8_lossy(w)))
+            );
+        }
+        Ok(b.vertex(v, vt, vn))
+    }
+
+    /// `mtllib a.mtl [b.mtl …]`, read now; a missing file is a warning.
+    fn mtllib(&mut self, at: &At, rest: &str) -> Result<(), FormatError> {
+        let files: Vec<&str> = rest.split_ascii_whitespace().collect();
+        if files.is_empty() {
+            return Err(at.err("`mtllib` names no file".into()));
+        }
+        let dir = self.path.parent().unwrap_or(Path::new(""));
+        // File names with spaces: try the whole rest of the line first.
+        let whole = rest.trim();
+        let names: Vec<&str> = if files.len() > 1 && dir.join(whole).is_file() { vec![whole] } else { files };
+        for f in names {
+            let mtl_path = dir.join(f);
+            match std::fs::read(&mtl_path) {
+                Ok(text) => self.library.read(&mtl_path, &text, &mut self.warnings)?,
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => self.warnings.push(format!(
+                    "{}:{}: material library {} not found; its materials are replaced by the default material",
+                    file_name(self.path),
+                    at.line,
+                    mtl_path.display()
+                )),
+                Err(e) => return Err(FormatError::io(mtl_path, e)),
+            }
+        }
+        Ok(())
+    }
+
+    /// `usemtl name`: the material of the faces that follow (the default one if no library
+    /// defines `name`).
+    fn usemtl(&mut self, m: &str) {
+        if !self.uses_materials {
+            // Faces before the first `usemtl` get the default material.
+            self.uses_materials = true;
+            let d = self.default_material();
+            self.b.triangle_materials = vec![d; self.b.triangles.len()];
+        }
+        self.current_material = match self.library.by_name.get(m) {
+            Some(&i) => i as u32,
+            None => {
+                self.undefined.insert(m.to_string());
+                self.default_material()
+            }
+        };
+    }
+
+    fn default_material(&mut self) -> u32 {
+        if self.default_index == NONE {
+            self.default_index = self.library.materials.len() as u32;
+            self.library.materials.push(Material::default());
+        }
+        self.default_index
+    }
+
+    /// The model, after warning once about what was skipped or left undefined.
+    fn finish(mut self) -> Result<Model, FormatError> {
+        let name = file_name(self.path);
+        self.skipped.remove("s");
+        if !self.skipped.is_empty() {
+            let list: Vec<String> = self.skipped.into_iter().collect();
+            self.warnings.push(format!("{name}: ignored statements glint does not render: {}", list.join(", ")));
+        }
+        if !self.undefined.is_empty() {
+            let list: Vec<String> = self.undefined.into_iter().collect();
+            self.warnings.push(format!(
+                "{name}: materials not defined in any material library (the default is used): {}",
+                list.join(", ")
+            ));
+        }
+        if self.b.out_positions.len() > NONE as usize {
+            return Err(FormatError::limits(self.path, "more vertices than glint can index"));
+        }
+        let mesh = assemble(self.path, self.b);
+        let meshes = if mesh.triangles.is_empty() { Vec::new() } else { vec![mesh] };
+        Ok(Model {
+            meshes,
+            materials: self.library.materials,
+            textures: self.library.textures,
+            warnings: self.warnings,
+        })
+    }
 }
 
 /// The text of `line` after its first word `keyword`.
 fn rest_after<'a>(line: &'a [u8], keyword: &[u8]) -> std::borrow::Cow<'a, str> {
     let start = line.windows(keyword.len()).position(|w| w == keyword).map_or(line.len(), |p| p + keyword.len());
     String::from_utf8_lossy(&line[start..])
-}
-
-fn default_material(library: &mut MaterialLibrary, index: &mut u32) -> u32 {
-    if *index == NONE {
-        *index = library.materials.len() as u32;
-        library.materials.push(Material::default());
-    }
-    *index
 }
 
 /// The final mesh: attributes only where the file gave them; normals missing at some corners

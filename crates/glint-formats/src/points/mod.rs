@@ -24,6 +24,7 @@ pub use write::write_ply_cloud;
 pub use xyz::{parse_xyz, read_xyz};
 
 use crate::FormatError;
+use glint_core::glam::DVec3;
 use glint_scene::PointCloud;
 use std::path::Path;
 
@@ -61,6 +62,16 @@ pub fn read_point_cloud(path: &Path, options: &PointReadOptions) -> Result<Point
                 format!("{ext} is not a point-cloud format glint reads (.ply, .las, .laz, .xyz, .txt, .pts)"),
             ))
         }
+    }
+}
+
+/// A point given in a cloud file's own axes (a scene's `sensor`) in glint's axes, as the
+/// file's points are read: LAS/LAZ are Z-up and turned by [`las::glint_from_las`]; the other
+/// formats are read as they are.
+pub(crate) fn glint_from_file_axes(path: &Path, p: DVec3) -> DVec3 {
+    match cloud_format(path) {
+        Some(CloudFormat::Las) => las::glint_from_las(p),
+        Some(CloudFormat::Ply | CloudFormat::Text) | None => p,
     }
 }
 

@@ -4,6 +4,8 @@
 use super::*;
 use crate::test_util::TempDir;
 use crate::{DEMO_SCENE, load, load_scene_str};
+use glint_core::{Affine3A, Vec2};
+use glint_scene::{Attenuation, Fov, Material, Repeat, Shape, Sky, Texture};
 
 const SCENES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes");
 

@@ -7,7 +7,8 @@
 //!   header whose bounds are not finite, or do not hold the first point, is not trusted: the
 //!   first point is the origin then.
 //! - **Axes.** LAS is Z-up (x east, y north); glint's world is Y-up, right-handed. A LAS point
-//!   `(x, y, z)` becomes `(x, z, -y)`. The origin is stored in glint's axes too, so the file's
+//!   `(x, y, z)` becomes `(x, z, -y)` ([`glint_from_las`], which also turns a scene's `sensor`
+//!   given in the file's axes). The origin is stored in glint's axes too, so the file's
 //!   point is recovered as `(o.x + p.x, -(o.z + p.z), o.y + p.y)` with `o = origin`,
 //!   `p = position`.
 //! - **Orientation** is [`Orientation::Up`] (+Y): airborne scans see surfaces from above, so
@@ -34,6 +35,13 @@ use std::path::Path;
 const CHUNK: u64 = 1 << 16;
 /// A LAZ file holding more points than this many per byte is not believed.
 const MAX_LAZ_POINTS_PER_BYTE: u64 = 1000;
+
+/// A point in a LAS file's axes (Z-up: x east, y north) in glint's (Y-up, right-handed):
+/// `(x, y, z)` → `(x, z, −y)`.
+#[inline]
+pub(crate) fn glint_from_las(p: DVec3) -> DVec3 {
+    DVec3::new(p.x, p.z, -p.y)
+}
 
 fn malformed(path: &Path, place: impl Into<String>, message: impl Into<String>) -> FormatError {
     FormatError::malformed(path, place, message)
@@ -180,8 +188,7 @@ pub(crate) fn read_las(path: &Path, options: &PointReadOptions) -> Result<PointC
                 Some((lo, hi)) if within(p, lo, hi) => (lo + hi) * 0.5,
                 _ => p,
             });
-            let d = p - origin;
-            positions.push(Vec3::new(d.x as f32, d.z as f32, -d.y as f32));
+            positions.push(glint_from_las(p - origin).as_vec3());
         }
         if want_rgb && let Some(rgb) = points.rgb() {
             rgb16.extend(rgb.map(|(r, g, b)| [r, g, b]));
@@ -194,8 +201,7 @@ pub(crate) fn read_las(path: &Path, options: &PointReadOptions) -> Result<PointC
         }
         done += n;
     }
-    let o = origin_las.unwrap_or(DVec3::ZERO);
-    let origin = DVec3::new(o.x, o.z, -o.y);
+    let origin = glint_from_las(origin_las.unwrap_or(DVec3::ZERO));
 
     let rgb = want_rgb.then(|| {
         let max = rgb16.iter().flatten().copied().max().unwrap_or(0);

@@ -1,0 +1,164 @@
+//! The bytes behind a glTF file: its buffers (the .glb BIN chunk, base64 `data:` URIs or files
+//! beside the .gltf) and its images, decoded to linear RGB texels.
+//!
+//! Read here rather than by the `gltf` crate's importer, so that a missing file is reported by
+//! name (a missing buffer is an error, a missing image a warning) and a bad URI cannot panic.
+//! [`super::read`] calls [`read_buffers`] first, then [`read_image`] for each base colour image.
+
+use crate::error::FormatError;
+use crate::model::file_name;
+use crate::texture_file;
+use glint_core::Rgb;
+use glint_core::colour::srgb_to_linear;
+use glint_scene::TextureImage;
+use std::path::{Path, PathBuf};
+
+pub(super) fn read_buffers(
+    path: &Path,
+    base: &Path,
+    document: &gltf::Document,
+    mut blob: Option<Vec<u8>>,
+) -> Result<Vec<Vec<u8>>, FormatError> {
+    let mut out = Vec::new();
+    for buffer in document.buffers() {
+        let place = format!("buffers[{}]", buffer.index());
+        let data = match buffer.source() {
+            gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
+                FormatError::malformed(path, place.clone(), "refers to the BIN chunk, which the file does not have")
+            })?,
+            gltf::buffer::Source::Uri(uri) => match read_uri(path, base, uri, &place)? {
+                UriData::Bytes(b) => b,
+                UriData::Missing(file) => {
+                    return Err(FormatError::MissingFile {
+                        file,
+                        referenced_from: format!("{} ({place})", path.display()),
+                    });
+                }
+            },
+        };
+        if data.len() < buffer.length() {
+            return Err(FormatError::malformed(
+                path,
+                place,
+                format!("holds {} bytes, but the file says {}", data.len(), buffer.length()),
+            ));
+        }
+        out.push(data);
+    }
+    Ok(out)
+}
+
+enum UriData {
+    Bytes(Vec<u8>),
+    Missing(PathBuf),
+}
+
+/// The bytes a URI names: a base64 `data:` URI or a file relative to the glTF file.
+fn read_uri(path: &Path, base: &Path, uri: &str, place: &str) -> Result<UriData, FormatError> {
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let Some((_, payload)) = rest.split_once(";base64,") else {
+            return Err(FormatError::malformed(path, place, "only base64 data URIs are supported"));
+        };
+        return decode_base64(payload)
+            .map(UriData::Bytes)
+            .ok_or_else(|| FormatError::malformed(path, place, "invalid base64 in data URI"));
+    }
+    let relative = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")).unwrap_or(uri);
+    if relative.contains("://") {
+        return Err(FormatError::malformed(path, place, format!("unsupported URI scheme in `{uri}`")));
+    }
+    let file = base.join(percent_decode(relative));
+    match std::fs::read(&file) {
+        Ok(bytes) => Ok(UriData::Bytes(bytes)),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(UriData::Missing(file)),
+        Err(e) => Err(FormatError::io(file, e)),
+    }
+}
+
+fn percent_decode(s: &str) -> String {
+    let bytes = s.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'%'
+            && let Some(v) = bytes
+                .get(i + 1..i + 3)
+                .and_then(|h| std::str::from_utf8(h).ok())
+                .and_then(|h| u8::from_str_radix(h, 16).ok())
+        {
+            out.push(v);
+            i += 3;
+            continue;
+        }
+        out.push(bytes[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+/// Standard base64 (RFC 4648), padding optional, whitespace not allowed.
+pub(super) fn decode_base64(s: &str) -> Option<Vec<u8>> {
+    let value = |c: u8| -> Option<u32> {
+        Some(match c {
+            b'A'..=b'Z' => c - b'A',
+            b'a'..=b'z' => c - b'a' + 26,
+            b'0'..=b'9' => c - b'0' + 52,
+            b'+' | b'-' => 62,
+            b'/' | b'_' => 63,
+            _ => return None,
+        } as u32)
+    };
+    let s = s.trim_end_matches('=').as_bytes();
+    let mut out = Vec::with_capacity(s.len() * 3 / 4);
+    for chunk in s.chunks(4) {
+        let mut acc = 0u32;
+        for &c in chunk {
+            acc = (acc << 6) | value(c)?;
+        }
+        match chunk.len() {
+            4 => out.extend_from_slice(&acc.to_be_bytes()[1..]),
+            3 => out.extend_from_slice(&(acc << 6).to_be_bytes()[1..3]),
+            2 => out.push((acc >> 4) as u8),
+            _ => return None,
+        }
+    }
+    Some(out)
+}
+
+/// A base colour image, decoded to linear RGB. A missing image file is a warning (`None`).
+pub(super) fn read_image(
+    path: &Path,
+    base: &Path,
+    image: &gltf::Image,
+    buffers: &[Vec<u8>],
+    warnings: &mut Vec<String>,
+) -> Result<Option<TextureImage>, FormatError> {
+    let place = format!("images[{}]", image.index());
+    let bytes = match image.source() {
+        gltf::image::Source::View { view, .. } => {
+            let start = view.offset();
+            let slice = buffers.get(view.buffer().index()).and_then(|b| b.get(start..start + view.length()));
+            match slice {
+                Some(s) => s.to_vec(),
+                None => return Err(FormatError::malformed(path, place, "the buffer view lies outside its buffer")),
+            }
+        }
+        gltf::image::Source::Uri { uri, .. } => match read_uri(path, base, uri, &place)? {
+            UriData::Bytes(b) => b,
+            UriData::Missing(file) => {
+                warnings.push(format!(
+                    "{}: texture {} ({place}) not found; its material uses the base colour factor",
+                    file_name(path),
+                    file.display()
+                ));
+                return Ok(None);
+            }
+        },
+    };
+    let decoded = image::load_from_memory(&bytes)
+        .map_err(|e| FormatError::malformed(path, place, format!("cannot decode image: {e}")))?;
+    texture_file::check_size(path, decoded.width(), decoded.height())?;
+    let rgb = decoded.into_rgb32f();
+    let texels = rgb.pixels().map(|p| Rgb::from_array(p.0.map(srgb_to_linear))).collect();
+    Ok(Some(TextureImage { width: rgb.width(), height: rgb.height(), texels }))
+}

@@ -1,0 +1,58 @@
+//! `[camera]` → [`Camera`]: a position, a view direction (`look_at` or `forward`), `up` and a
+//! field of view (`fov` vertical or `hfov`), in degrees.
+//!
+//! Read right after the render settings. A view direction that vanishes or runs along `up`
+//! is an error at its line here, so the scene's camera frame always exists.
+
+use super::Builder;
+use super::defs::CameraDef;
+use super::values::Num;
+use crate::error::FormatError;
+use glint_core::Vec3;
+use glint_scene::{Camera, Fov};
+use toml::Spanned;
+
+impl Builder<'_> {
+    pub(super) fn camera(&self, c: &Spanned<CameraDef>) -> Result<Camera, FormatError> {
+        let def = c.get_ref();
+        let position = match &def.position {
+            Some(p) => p.get_ref().0,
+            None => return Err(self.missing(&c.span(), "[camera] needs `position`")),
+        };
+        let forward = match (&def.look_at, &def.forward) {
+            (Some(_), Some(f)) => return Err(self.err(&f.span(), "give either `look_at` or `forward`, not both")),
+            (Some(t), None) => {
+                let d = t.get_ref().0 - position;
+                if d.length_squared() == 0.0 {
+                    return Err(self.err(&t.span(), "`look_at` equals the camera position"));
+                }
+                d
+            }
+            (None, Some(f)) => self.direction(f, "forward")?,
+            (None, None) => return Err(self.missing(&c.span(), "[camera] needs `look_at` or `forward`")),
+        };
+        let up = match &def.up {
+            Some(u) => self.direction(u, "up")?,
+            None => Vec3::Y,
+        };
+        if forward.normalize().cross(up).length_squared() < 1e-12 {
+            let span = def.up.as_ref().map_or(c.span(), Spanned::span);
+            return Err(self.err(&span, "`up` is parallel to the view direction"));
+        }
+        let fov = match (&def.fov, &def.hfov) {
+            (Some(_), Some(h)) => return Err(self.err(&h.span(), "give either `fov` (vertical) or `hfov`, not both")),
+            (Some(v), None) => Fov::Vertical(self.angle(v, "fov")?),
+            (None, Some(h)) => Fov::Horizontal(self.angle(h, "hfov")?),
+            (None, None) => Fov::Vertical(45.0),
+        };
+        Ok(Camera { position, forward: forward.normalize(), up: up.normalize(), fov })
+    }
+
+    fn angle(&self, v: &Spanned<Num>, key: &str) -> Result<f32, FormatError> {
+        let a = v.get_ref().0;
+        if !(a > 0.0 && a < 180.0) {
+            return Err(self.err(&v.span(), format!("`{key}` = {a} must be in (0, 180) degrees")));
+        }
+        Ok(a)
+    }
+}
