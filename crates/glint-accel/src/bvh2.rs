@@ -202,15 +202,9 @@ impl Bvh2 {
                     (None, None) => {}
                 }
             }
-            loop {
-                match stack.pop() {
-                    None => return,
-                    Some(Entry { child, t }) if t <= tmax => {
-                        cur = child as usize;
-                        break;
-                    }
-                    Some(_) => {}
-                }
+            match stack.pop_within(tmax) {
+                Some(child) => cur = child as usize,
+                None => return,
             }
         }
     }

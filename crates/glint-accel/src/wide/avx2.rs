@@ -1,12 +1,14 @@
 //! x86-64 AVX2 + FMA, entered only after runtime detection ([`super::Isa::detect`]): the
-//! 8-lane vector [`F8`] for 8-wide nodes, and the generic kernels instantiated inside
-//! `#[target_feature(enable = "avx2,fma")]` functions (8-wide, and 4-wide recompiled with VEX
-//! encoding). Leaves use the 4-lane packet test of `sse.rs` (watertight arithmetic, no FMA).
+//! 8-lane vector [`F8`] for 8-wide nodes, and the walks of `walk.rs` with the SIMD kernel
+//! instantiated inside one `#[target_feature(enable = "avx2,fma")]` function, generic over the
+//! width and the query (8-wide, and 4-wide recompiled with VEX encoding). Leaves use the
+//! 4-lane packet test of `sse.rs` (watertight arithmetic, no FMA).
 
+use super::dispatch::Query;
+use super::scalar::ScalarKernel;
 use super::sse::F4;
-use super::traverse::{self, Simd};
-use super::{Isa, WideBvh, scalar};
-use crate::Hit;
+use super::traverse::{Simd, SimdKernel};
+use super::{Isa, WideBvh};
 use glint_core::Ray;
 use std::arch::x86_64::*;
 
@@ -64,53 +66,31 @@ impl Simd<8> for F8 {
 }
 
 #[target_feature(enable = "avx2,fma")]
-fn closest8(bvh: &WideBvh<8>, ray: &Ray) -> Option<Hit> {
-    traverse::closest::<8, F8>(bvh, ray)
+fn walk<const N: usize, S: Simd<N>, Q: Query>(bvh: &WideBvh<N>, ray: &Ray) -> Q::Out {
+    Q::walk::<N, SimdKernel<S>>(bvh, ray)
 }
 
-#[target_feature(enable = "avx2,fma")]
-fn any8(bvh: &WideBvh<8>, ray: &Ray) -> bool {
-    traverse::occluded::<8, F8>(bvh, ray)
-}
-
-#[target_feature(enable = "avx2,fma")]
-fn closest4(bvh: &WideBvh<4>, ray: &Ray) -> Option<Hit> {
-    traverse::closest::<4, F4>(bvh, ray)
-}
-
-#[target_feature(enable = "avx2,fma")]
-fn any4(bvh: &WideBvh<4>, ray: &Ray) -> bool {
-    traverse::occluded::<4, F4>(bvh, ray)
-}
-
-pub(super) fn intersect8(bvh: &WideBvh<8>, ray: &Ray) -> Option<Hit> {
+/// `Q` with the AVX2 kernel of vector `S`, or with `fallback` on a machine without AVX2 and FMA
+/// (a caller may ask for [`Isa::Avx2`] anywhere).
+#[inline(always)]
+fn checked<const N: usize, S: Simd<N>, Q: Query>(
+    bvh: &WideBvh<N>,
+    ray: &Ray,
+    fallback: impl FnOnce(&WideBvh<N>, &Ray) -> Q::Out,
+) -> Q::Out {
     if Isa::detect() != Isa::Avx2 {
-        return scalar::intersect(bvh, ray);
+        return fallback(bvh, ray);
     }
     // SAFETY: AVX2 and FMA were detected at runtime just above.
-    unsafe { closest8(bvh, ray) }
+    unsafe { walk::<N, S, Q>(bvh, ray) }
 }
 
-pub(super) fn occluded8(bvh: &WideBvh<8>, ray: &Ray) -> bool {
-    if Isa::detect() != Isa::Avx2 {
-        return scalar::occluded(bvh, ray);
-    }
-    // SAFETY: AVX2 and FMA were detected at runtime just above.
-    unsafe { any8(bvh, ray) }
+/// 8-wide nodes with the 8-lane [`F8`]; the scalar kernel without AVX2.
+pub(super) fn run8<Q: Query>(bvh: &WideBvh<8>, ray: &Ray) -> Q::Out {
+    checked::<8, F8, Q>(bvh, ray, Q::walk::<8, ScalarKernel>)
 }
 
-pub(super) fn intersect4(bvh: &WideBvh<4>, ray: &Ray) -> Option<Hit> {
-    if Isa::detect() != Isa::Avx2 {
-        return super::sse::intersect(bvh, ray);
-    }
-    // SAFETY: AVX2 and FMA were detected at runtime just above.
-    unsafe { closest4(bvh, ray) }
-}
-
-pub(super) fn occluded4(bvh: &WideBvh<4>, ray: &Ray) -> bool {
-    if Isa::detect() != Isa::Avx2 {
-        return super::sse::occluded(bvh, ray);
-    }
-    // SAFETY: AVX2 and FMA were detected at runtime just above.
-    unsafe { any4(bvh, ray) }
+/// 4-wide nodes with SSE's [`F4`] recompiled with VEX encoding; the SSE2 kernel without AVX2.
+pub(super) fn run4<Q: Query>(bvh: &WideBvh<4>, ray: &Ray) -> Q::Out {
+    checked::<4, F4, Q>(bvh, ray, Q::walk::<4, SimdKernel<F4>>)
 }

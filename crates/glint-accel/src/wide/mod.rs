@@ -10,14 +10,18 @@
 //! the packet test is the watertight test of Woop et al. 2013 on four lanes, operation for
 //! operation the same as the scalar [`crate::primitives`] test (no FMA), so it stays watertight.
 //!
-//! Kernels: `scalar` (generic over `N`, the oracle and the non-x86 path), `sse` (4-wide, SSE2
-//! is the x86-64 baseline: no detection needed) and `avx2` (8-wide, and 4-wide recompiled with
-//! VEX encoding; only after runtime detection), and `packet` (8 coherent rays walking the
-//! 8-wide tree together, AVX2; `intersect8_isa` / `occluded8_isa` loop over single rays
-//! elsewhere). This module owns the layout and knows no ISA.
+//! Traversal: `walk` (the closest-hit and any-hit loops, written once, generic over a kernel
+//! that brings the node and leaf tests), with the kernels `scalar` (generic over `N`, the
+//! oracle and the non-x86 path) and `traverse` (SIMD, generic over `N` and the vector),
+//! instantiated as `sse` (4-wide, SSE2 is the x86-64 baseline: no detection needed) and `avx2`
+//! (8-wide, and 4-wide recompiled with VEX encoding; only after runtime detection); `packet`
+//! (8 coherent rays walking the 8-wide tree together, AVX2; `intersect8_isa` /
+//! `occluded8_isa` loop over single rays elsewhere); `dispatch` (the public queries, and which
+//! kernel each instruction set runs). This module owns the layout and knows no ISA.
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
+mod dispatch;
 #[cfg(target_arch = "x86_64")]
 mod packet;
 mod scalar;
@@ -25,10 +29,13 @@ mod scalar;
 mod sse;
 #[cfg(target_arch = "x86_64")]
 mod traverse;
+mod walk;
 
-use crate::bvh2::{Bvh2, ray_is_traceable};
-use crate::{Hit, fetch_triangle};
-use glint_core::{Bounds3, Ray, Vec3};
+pub(crate) use walk::{Entry, Stack};
+
+use crate::bvh2::Bvh2;
+use crate::fetch_triangle;
+use glint_core::{Bounds3, Vec3};
 use rayon::prelude::*;
 use std::sync::OnceLock;
 
@@ -254,22 +261,6 @@ impl<const N: usize> WideBvh<N> {
         std::mem::size_of_val(self.nodes.as_slice())
     }
 
-    /// Closest hit with the portable kernel (the oracle of the SIMD kernels).
-    pub fn intersect_scalar(&self, ray: &Ray) -> Option<Hit> {
-        if self.nodes.is_empty() || !ray_is_traceable(ray) {
-            return None;
-        }
-        scalar::intersect(self, ray)
-    }
-
-    /// Any hit with the portable kernel.
-    pub fn occluded_scalar(&self, ray: &Ray) -> bool {
-        if self.nodes.is_empty() || !ray_is_traceable(ray) {
-            return false;
-        }
-        scalar::occluded(self, ray)
-    }
-
     /// Same triangles, moved vertices: rewrites the packets and recomputes every child box
     /// bottom-up (children always have larger indices than their parent).
     pub fn refit(&mut self, positions: &[Vec3]) {
@@ -303,170 +294,6 @@ impl<const N: usize> WideBvh<N> {
     }
 }
 
-impl WideBvh<4> {
-    /// Closest hit with the best kernel of this machine.
-    #[inline]
-    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        self.intersect_isa(Isa::detect(), ray)
-    }
-
-    /// Any hit with the best kernel of this machine.
-    #[inline]
-    pub fn occluded(&self, ray: &Ray) -> bool {
-        self.occluded_isa(Isa::detect(), ray)
-    }
-
-    /// Closest hit with a chosen kernel (benchmarks compare them). An `isa` the machine lacks
-    /// falls back to the best one it has.
-    pub fn intersect_isa(&self, isa: Isa, ray: &Ray) -> Option<Hit> {
-        if self.nodes.is_empty() || !ray_is_traceable(ray) {
-            return None;
-        }
-        #[cfg(target_arch = "x86_64")]
-        match isa {
-            Isa::Scalar => scalar::intersect(self, ray),
-            Isa::Sse2 => sse::intersect(self, ray),
-            Isa::Avx2 => avx2::intersect4(self, ray),
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            let _ = isa;
-            scalar::intersect(self, ray)
-        }
-    }
-
-    pub fn occluded_isa(&self, isa: Isa, ray: &Ray) -> bool {
-        if self.nodes.is_empty() || !ray_is_traceable(ray) {
-            return false;
-        }
-        #[cfg(target_arch = "x86_64")]
-        match isa {
-            Isa::Scalar => scalar::occluded(self, ray),
-            Isa::Sse2 => sse::occluded(self, ray),
-            Isa::Avx2 => avx2::occluded4(self, ray),
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            let _ = isa;
-            scalar::occluded(self, ray)
-        }
-    }
-}
-
-impl WideBvh<8> {
-    /// Closest hit with the best kernel of this machine.
-    #[inline]
-    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        self.intersect_isa(Isa::detect(), ray)
-    }
-
-    /// Any hit with the best kernel of this machine.
-    #[inline]
-    pub fn occluded(&self, ray: &Ray) -> bool {
-        self.occluded_isa(Isa::detect(), ray)
-    }
-
-    /// Closest hit with a chosen kernel; without AVX2 the 8-wide layout runs the scalar kernel.
-    pub fn intersect_isa(&self, isa: Isa, ray: &Ray) -> Option<Hit> {
-        if self.nodes.is_empty() || !ray_is_traceable(ray) {
-            return None;
-        }
-        #[cfg(target_arch = "x86_64")]
-        if isa == Isa::Avx2 {
-            return avx2::intersect8(self, ray);
-        }
-        let _ = isa;
-        scalar::intersect(self, ray)
-    }
-
-    pub fn occluded_isa(&self, isa: Isa, ray: &Ray) -> bool {
-        if self.nodes.is_empty() || !ray_is_traceable(ray) {
-            return false;
-        }
-        #[cfg(target_arch = "x86_64")]
-        if isa == Isa::Avx2 {
-            return avx2::occluded8(self, ray);
-        }
-        let _ = isa;
-        scalar::occluded(self, ray)
-    }
-}
-
-impl WideBvh<8> {
-    /// Closest hits of up to 8 rays with a chosen kernel: with AVX2 the packet kernel
-    /// (`packet.rs`), otherwise one single-ray query per ray. `out[i]` is what
-    /// `intersect_isa(isa, &rays[i])` returns, bit for bit.
-    pub fn intersect8_isa(&self, isa: Isa, rays: &[Ray; 8], out: &mut [Option<Hit>; 8]) {
-        #[cfg(target_arch = "x86_64")]
-        if isa == Isa::Avx2 && Isa::detect() == Isa::Avx2 && !self.nodes.is_empty() {
-            return packet::intersect8(self, rays, out);
-        }
-        for (o, r) in out.iter_mut().zip(rays) {
-            *o = self.intersect_isa(isa, r);
-        }
-    }
-
-    /// Any hits of up to 8 rays: `out[i] == occluded_isa(isa, &rays[i])`.
-    pub fn occluded8_isa(&self, isa: Isa, rays: &[Ray; 8], out: &mut [bool; 8]) {
-        #[cfg(target_arch = "x86_64")]
-        if isa == Isa::Avx2 && Isa::detect() == Isa::Avx2 && !self.nodes.is_empty() {
-            return packet::occluded8(self, rays, out);
-        }
-        for (o, r) in out.iter_mut().zip(rays) {
-            *o = self.occluded_isa(isa, r);
-        }
-    }
-}
-
-/// Traversal stack: a fixed array for the common case, spilling to the heap for deep trees, so
-/// no tree depth can overflow it and no ray pays for a large zeroed array.
-pub(crate) struct Stack<T: Copy + Default> {
-    fixed: [T; STACK_FIXED],
-    len: usize,
-    spill: Vec<T>,
-}
-const STACK_FIXED: usize = 48;
-
-impl<T: Copy + Default> Stack<T> {
-    #[inline(always)]
-    pub fn new() -> Self {
-        Self { fixed: [T::default(); STACK_FIXED], len: 0, spill: Vec::new() }
-    }
-    #[inline(always)]
-    pub fn push(&mut self, v: T) {
-        if self.len < STACK_FIXED {
-            self.fixed[self.len] = v;
-        } else {
-            self.spill.push(v);
-        }
-        self.len += 1;
-    }
-    #[inline(always)]
-    pub fn pop(&mut self) -> Option<T> {
-        if self.len == 0 {
-            return None;
-        }
-        self.len -= 1;
-        if self.len < STACK_FIXED { Some(self.fixed[self.len]) } else { self.spill.pop() }
-    }
-}
-
-/// Whether a candidate hit at `t` (already known to be within the current `tmax`) replaces
-/// `best`: a nearer one does, and among equally near ones the lowest primitive index (the
-/// brute-force oracle's rule). This makes the closest hit independent of the order in which
-/// leaves are visited, so the packet kernels return what the single-ray kernels return.
-#[inline(always)]
-pub(crate) fn closer(t: f32, prim: u32, best: &Option<Hit>) -> bool {
-    best.is_none_or(|b| t < b.t || (t == b.t && prim < b.prim))
-}
-
-/// A stack entry of the closest-hit kernels: a child reference and its entry distance.
-#[derive(Clone, Copy, Default)]
-pub(crate) struct Entry {
-    pub child: u32,
-    pub t: f32,
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -474,6 +301,7 @@ mod tests {
     use crate::procedural::{Rng, icosphere, triangle_soup};
     use crate::test_util::{random_rays, same_hit};
     use crate::{brute_force_intersect, brute_force_occluded};
+    use glint_core::Ray;
     use proptest::prelude::*;
 
     fn isas() -> Vec<Isa> {

@@ -8,12 +8,14 @@
 //! Exactness: per lane the box test is the single-ray test (`traverse::node_test`) operation
 //! for operation, the leaves run the single-ray packet test ([`packet_closest`] /
 //! [`packet_any`]) per active ray, children are culled per ray against that ray's own `tmax`,
-//! and equally near hits are resolved by the lowest primitive index ([`super::closer`]), so
+//! and equally near hits are resolved by the lowest primitive index ([`super::walk::closer`]), so
 //! the result does not depend on the visiting order: `out[i]` equals the single-ray kernel's
 //! answer for `rays[i]`. Rays are grouped by direction octant (the near/far planes are picked
 //! per octant, as in the single-ray kernel); a group of one ray takes the single-ray kernel.
 
+use super::dispatch::{Any, Closest};
 use super::sse::{TriRay4, packet_any, packet_closest};
+use super::walk::sort_keys;
 use super::{EMPTY_SLOT, LEAF, Stack, WideBvh, avx2, leaf_packets};
 use crate::Hit;
 use crate::bvh2::{FAR_SCALE, ray_is_traceable};
@@ -60,7 +62,7 @@ pub(super) fn intersect8(bvh: &WideBvh<8>, rays: &[Ray; 8], out: &mut [Option<Hi
     for_each_octant(rays, |group, oct| {
         if group & (group - 1) == 0 {
             let i = group.trailing_zeros() as usize;
-            out[i] = avx2::intersect8(bvh, &rays[i]);
+            out[i] = avx2::run8::<Closest>(bvh, &rays[i]);
         } else {
             // SAFETY: AVX2 and FMA detected by the caller (see the top of the file).
             unsafe { closest_packet(bvh, rays, group, oct, out) }
@@ -74,7 +76,7 @@ pub(super) fn occluded8(bvh: &WideBvh<8>, rays: &[Ray; 8], out: &mut [bool; 8]) 
     for_each_octant(rays, |group, oct| {
         if group & (group - 1) == 0 {
             let i = group.trailing_zeros() as usize;
-            out[i] = avx2::occluded8(bvh, &rays[i]);
+            out[i] = avx2::run8::<Any>(bvh, &rays[i]);
         } else {
             // SAFETY: AVX2 and FMA detected by the caller (see the top of the file).
             let done = unsafe { any_packet(bvh, rays, group, oct) };
@@ -180,6 +182,43 @@ fn masked_min(tn: __m256, mask: u32) -> f32 {
     }
 }
 
+/// The indices of the set bits of a lane mask, lowest first: the rays it holds.
+struct Lanes(u32);
+
+impl Iterator for Lanes {
+    type Item = usize;
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<usize> {
+        if self.0 == 0 {
+            return None;
+        }
+        let i = self.0.trailing_zeros() as usize % 8;
+        self.0 &= self.0 - 1;
+        Some(i)
+    }
+}
+
+/// The rays' constants of the triangle packet test, each made on its ray's first leaf: most
+/// rays of a packet that misses never get there.
+struct LeafRays<'a> {
+    rays: &'a [Ray; 8],
+    tris: [Option<TriRay4>; 8],
+}
+
+impl<'a> LeafRays<'a> {
+    #[inline(always)]
+    fn new(rays: &'a [Ray; 8]) -> Self {
+        Self { rays, tris: std::array::from_fn(|_| None) }
+    }
+
+    #[inline(always)]
+    fn get(&mut self, i: usize) -> &TriRay4 {
+        let ray = &self.rays[i];
+        self.tris[i].get_or_insert_with(|| TriRay4::new(ray))
+    }
+}
+
 /// A stack entry of the closest-hit packet kernel: a child, the rays whose box test passed,
 /// and their entry distances (re-checked against each ray's `tmax` when popped).
 #[derive(Clone, Copy, Default)]
@@ -192,7 +231,7 @@ struct Entry8 {
 #[target_feature(enable = "avx2,fma")]
 fn closest_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32, out: &mut [Option<Hit>; 8]) {
     let mut pr = PacketRay::new(rays, group, oct);
-    let mut tris: [Option<TriRay4>; 8] = std::array::from_fn(|_| None);
+    let mut leaf_rays = LeafRays::new(rays);
     let mut tmax = load(&pr.tmax);
     let mut stack = Stack::<Entry8>::new();
     let (mut cur, mut active) = (0u32, group);
@@ -218,7 +257,7 @@ fn closest_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32, out: 
             }
             if k > 0 {
                 let keys = &mut keys[..k];
-                super::scalar::sort_keys(keys);
+                sort_keys(keys);
                 for &key in keys[1..].iter().rev() {
                     let c = key as usize % 8;
                     stack.push(Entry8 { child: node.child[c], mask: masks[c], tn: store(tns[c]) });
@@ -229,15 +268,11 @@ fn closest_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32, out: 
                 continue;
             }
         } else {
-            let mut m = active;
-            while m != 0 {
-                let i = m.trailing_zeros() as usize % 8;
-                // Built on the ray's first leaf: most rays of a packet that misses never get here.
-                let tr = tris[i].get_or_insert_with(|| TriRay4::new(&rays[i]));
+            for i in Lanes(active) {
+                let tr = leaf_rays.get(i);
                 for p in &bvh.packets[leaf_packets(cur)] {
                     pr.tmax[i] = packet_closest(p, tr, pr.tmax[i], &mut out[i]);
                 }
-                m &= m - 1;
             }
             tmax = load(&pr.tmax);
         }
@@ -257,7 +292,7 @@ fn closest_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32, out: 
 #[target_feature(enable = "avx2,fma")]
 fn any_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32) -> u32 {
     let mut pr = PacketRay::new(rays, group, oct);
-    let mut tris: [Option<TriRay4>; 8] = std::array::from_fn(|_| None);
+    let mut leaf_rays = LeafRays::new(rays);
     let ray_tmax = pr.tmax;
     let mut tmax = load(&pr.tmax);
     let mut done = 0u32;
@@ -285,15 +320,12 @@ fn any_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32) -> u32 {
                 continue;
             }
         } else {
-            let mut m = active;
-            while m != 0 {
-                let i = m.trailing_zeros() as usize % 8;
-                let tr = tris[i].get_or_insert_with(|| TriRay4::new(&rays[i]));
+            for i in Lanes(active) {
+                let tr = leaf_rays.get(i);
                 if bvh.packets[leaf_packets(cur)].iter().any(|p| packet_any(p, tr, ray_tmax[i])) {
                     done |= 1 << i;
                     pr.tmax[i] = f32::NEG_INFINITY;
                 }
-                m &= m - 1;
             }
             if done == group {
                 return done;

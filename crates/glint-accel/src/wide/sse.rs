@@ -1,15 +1,16 @@
 //! x86-64 SSE2: the 4-lane vector [`F4`] (node test of 4-wide nodes, and the triangle packet
-//! test of every width) and the 4-wide entry points. SSE2 is part of the x86-64 baseline, so
-//! these run everywhere without detection; the same `#[inline(always)]` code is recompiled with
-//! VEX encoding when `avx2.rs` inlines it.
+//! test of every width). SSE2 is part of the x86-64 baseline, so the 4-wide SSE2 kernel
+//! (`SimdKernel<F4>`, chosen in `dispatch.rs`) runs everywhere without detection; the same
+//! `#[inline(always)]` code is recompiled with VEX encoding when `avx2.rs` inlines it.
 //!
 //! Packet test: Woop, Benthin, Wald 2013 on four lanes, the same operations in the same order
 //! as `primitives::woop` and no FMA, so lanes are bit-identical to the scalar test; lanes
 //! whose edge functions come out exactly zero are handed to the scalar test and its f64
 //! recomputation.
 
-use super::traverse::{self, Simd};
-use super::{PACKET, TriPacket, WideBvh, closer};
+use super::traverse::Simd;
+use super::walk::closer;
+use super::{PACKET, TriPacket};
 use crate::Hit;
 use crate::primitives::{WoopRay, woop};
 use glint_core::Ray;
@@ -252,12 +253,4 @@ pub(super) fn packet_any(p: &TriPacket, r: &TriRay4, tmax: f32) -> bool {
         z &= z - 1;
     }
     false
-}
-
-pub(super) fn intersect(bvh: &WideBvh<4>, ray: &Ray) -> Option<Hit> {
-    traverse::closest::<4, F4>(bvh, ray)
-}
-
-pub(super) fn occluded(bvh: &WideBvh<4>, ray: &Ray) -> bool {
-    traverse::occluded::<4, F4>(bvh, ray)
 }

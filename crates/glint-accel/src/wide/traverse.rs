@@ -1,16 +1,16 @@
-//! The traversal kernels, generic over the node width `N` and the SIMD vector `S` that holds
-//! one float per child. Every function here is `#[inline(always)]` and free of
-//! `#[target_feature]`, so the ISA files instantiate them inside their own (target-feature)
-//! entry points: the same source becomes SSE2 code in `sse.rs` and VEX/AVX2 code in `avx2.rs`.
+//! The SIMD kernel, generic over the node width `N` and the SIMD vector `S` that holds one
+//! float per child: the node test of all `N` children at once, and the 4-lane triangle packet
+//! test of `sse.rs` in the leaves. Every function here is `#[inline(always)]` and free of
+//! `#[target_feature]`, so the ISA files instantiate the walks of `walk.rs` with [`SimdKernel`]
+//! inside their own (target-feature) entry points: the same source becomes SSE2 code in
+//! `sse.rs` and VEX/AVX2 code in `avx2.rs`.
 //!
-//! Closest hit: children met by the ray are visited nearest entry first (keys
-//! `entry-distance bits << 32 | slot`, sorted by insertion), the farther ones pushed with their
-//! entry distance and skipped when popped behind the current hit. Any hit: no ordering, first
-//! hit returns.
+//! The visiting order is `walk.rs`'s: nearest entry first for the closest hit, found from the
+//! node test's entry distances; a node with one child met goes straight down without sorting.
 
-use super::scalar::sort_keys;
 use super::sse::{TriRay4, packet_any, packet_closest};
-use super::{Entry, LEAF, Stack, WideBvh, WideNode, leaf_packets};
+use super::walk::{Entry, Kernel, Stack, push_farther};
+use super::{TriPacket, WideNode};
 use crate::Hit;
 use crate::bvh2::FAR_SCALE;
 use glint_core::Ray;
@@ -70,90 +70,77 @@ pub(super) fn node_test<const N: usize, S: Simd<N>>(n: &WideNode<N>, r: &NodeRay
     (tn.le_mask(tf), tn)
 }
 
-#[inline(always)]
-pub(super) fn closest<const N: usize, S: Simd<N>>(bvh: &WideBvh<N>, ray: &Ray) -> Option<Hit> {
-    let nr = NodeRay::<S>::new(ray);
-    let tr = TriRay4::new(ray);
-    let mut tmax = ray.tmax;
-    let mut best = None;
-    let mut stack = Stack::<Entry>::new();
-    let mut cur = 0u32;
-    loop {
-        if cur & LEAF == 0 {
-            let node = &bvh.nodes[cur as usize];
-            let (mask, tn) = node_test(node, &nr, S::splat(tmax));
-            if mask != 0 {
-                if mask & (mask - 1) == 0 {
-                    cur = node.child[mask.trailing_zeros() as usize % N];
-                    continue;
-                }
-                let d = tn.store();
-                let mut keys = [0u64; N];
-                let mut k = 0;
-                let mut m = mask;
-                while m != 0 {
-                    let i = m.trailing_zeros() as usize % N;
-                    keys[k % N] = (d[i].to_bits() as u64) << 32 | i as u64;
-                    k += 1;
-                    m &= m - 1;
-                }
-                let keys = &mut keys[..k.min(N)];
-                sort_keys(keys);
-                for &key in keys[1..].iter().rev() {
-                    let i = key as usize % N;
-                    stack.push(Entry { child: node.child[i], t: d[i] });
-                }
-                cur = node.child[keys[0] as usize % N];
-                continue;
-            }
-        } else {
-            for p in &bvh.packets[leaf_packets(cur)] {
-                tmax = packet_closest(p, &tr, tmax, &mut best);
-            }
-        }
-        loop {
-            match stack.pop() {
-                None => return best,
-                Some(e) if e.t <= tmax => {
-                    cur = e.child;
-                    break;
-                }
-                Some(_) => {}
-            }
-        }
-    }
-}
+/// The SIMD kernel with vector `S`.
+pub(super) struct SimdKernel<S>(std::marker::PhantomData<S>);
 
-#[inline(always)]
-pub(super) fn occluded<const N: usize, S: Simd<N>>(bvh: &WideBvh<N>, ray: &Ray) -> bool {
-    let nr = NodeRay::<S>::new(ray);
-    let tr = TriRay4::new(ray);
-    let tmax = S::splat(ray.tmax);
-    let mut stack = Stack::<u32>::new();
-    let mut cur = 0u32;
-    loop {
-        if cur & LEAF == 0 {
-            let node = &bvh.nodes[cur as usize];
-            let (mut mask, _) = node_test(node, &nr, tmax);
-            if mask != 0 {
-                cur = node.child[mask.trailing_zeros() as usize % N];
-                mask &= mask - 1;
-                while mask != 0 {
-                    stack.push(node.child[mask.trailing_zeros() as usize % N]);
-                    mask &= mask - 1;
-                }
-                continue;
-            }
-        } else {
-            for p in &bvh.packets[leaf_packets(cur)] {
-                if packet_any(p, &tr, ray.tmax) {
-                    return true;
-                }
+impl<const N: usize, S: Simd<N>> Kernel<N> for SimdKernel<S> {
+    type NodeRay = NodeRay<S>;
+    type LeafRay = TriRay4;
+
+    #[inline(always)]
+    fn node_ray(ray: &Ray) -> NodeRay<S> {
+        NodeRay::new(ray)
+    }
+
+    #[inline(always)]
+    fn leaf_ray(ray: &Ray) -> TriRay4 {
+        TriRay4::new(ray)
+    }
+
+    #[inline(always)]
+    fn nearest_child(r: &NodeRay<S>, node: &WideNode<N>, tmax: f32, stack: &mut Stack<Entry>) -> Option<u32> {
+        let (mask, tn) = node_test(node, r, S::splat(tmax));
+        if mask == 0 {
+            return None;
+        }
+        if mask & (mask - 1) == 0 {
+            return Some(node.child[mask.trailing_zeros() as usize % N]);
+        }
+        let d = tn.store();
+        let mut keys = [0u64; N];
+        let mut k = 0;
+        let mut m = mask;
+        while m != 0 {
+            let i = m.trailing_zeros() as usize % N;
+            keys[k % N] = (d[i].to_bits() as u64) << 32 | i as u64;
+            k += 1;
+            m &= m - 1;
+        }
+        Some(push_farther(node, &mut keys[..k.min(N)], &d, stack))
+    }
+
+    #[inline(always)]
+    fn any_child(r: &NodeRay<S>, node: &WideNode<N>, tmax: f32, stack: &mut Stack<u32>) -> Option<u32> {
+        let (mut mask, _) = node_test(node, r, S::splat(tmax));
+        if mask == 0 {
+            return None;
+        }
+        let first = node.child[mask.trailing_zeros() as usize % N];
+        mask &= mask - 1;
+        while mask != 0 {
+            stack.push(node.child[mask.trailing_zeros() as usize % N]);
+            mask &= mask - 1;
+        }
+        Some(first)
+    }
+
+    #[inline(always)]
+    fn closest_in_leaf(r: &TriRay4, packets: &[TriPacket], mut tmax: f32, best: &mut Option<Hit>) -> f32 {
+        for p in packets {
+            tmax = packet_closest(p, r, tmax, best);
+        }
+        tmax
+    }
+
+    // A loop, not an iterator adapter: a closure handed to a library function cannot be
+    // inlined into it from a `#[target_feature]` caller, and the leaf test would become a call.
+    #[inline(always)]
+    fn any_in_leaf(r: &TriRay4, packets: &[TriPacket], tmax: f32) -> bool {
+        for p in packets {
+            if packet_any(p, r, tmax) {
+                return true;
             }
         }
-        match stack.pop() {
-            Some(c) => cur = c,
-            None => return false,
-        }
+        false
     }
 }

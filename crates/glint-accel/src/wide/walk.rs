@@ -1,0 +1,192 @@
+//! The two walks of a wide BVH, closest hit and any hit, written once for every kernel; and the
+//! traversal state they share with the binary tree's walks (`bvh2.rs`): the stack, its
+//! entries, the visiting order and the rule between equally near hits.
+//!
+//! A kernel ([`Kernel`]) brings the per-ray tests: which children of a node the ray meets, and
+//! which triangles of a leaf it hits. The portable kernel (`scalar.rs`) and the SIMD kernel
+//! (`traverse.rs`, instantiated per ISA by `sse.rs` and `avx2.rs`) implement it. The walks and
+//! the kernels' methods are `#[inline(always)]`: each kernel's entry point compiles into one
+//! loop with its own tests inside it (no call per node, and within the ISA's target features).
+//!
+//! Closest hit: children met by the ray are visited nearest entry first (keys
+//! `entry-distance bits << 32 | slot`, sorted by insertion), the farther ones pushed with their
+//! entry distance and skipped when popped behind the current hit. Any hit: no ordering, first
+//! hit returns.
+//!
+//! `Kernel`, `Stack` and `Entry` are `pub` in this private module only because the public
+//! queries are bounded by `dispatch::Kernels`, whose signatures name them (see `dispatch.rs`).
+
+use super::{LEAF, TriPacket, WideBvh, WideNode, leaf_packets};
+use crate::Hit;
+use glint_core::Ray;
+
+/// The per-ray tests of one kernel, for nodes of `N` children. A ray's constants are split as
+/// the tests use them (node test, triangle test), so that each walk keeps them in registers.
+pub trait Kernel<const N: usize> {
+    /// A ray's constants for the node test (reciprocals, splatted origin, `tmin`).
+    type NodeRay;
+    /// A ray's constants for the triangle test (shear, `tmin`).
+    type LeafRay;
+    fn node_ray(ray: &Ray) -> Self::NodeRay;
+    fn leaf_ray(ray: &Ray) -> Self::LeafRay;
+    /// The children of `node` the ray meets before `tmax`, nearest first: pushes all but the
+    /// nearest onto `stack` ([`push_farther`]) and returns the nearest; `None` when it meets
+    /// none.
+    fn nearest_child(r: &Self::NodeRay, node: &WideNode<N>, tmax: f32, stack: &mut Stack<Entry>) -> Option<u32>;
+    /// A child of `node` the ray meets before `tmax`, the others it meets pushed onto `stack`;
+    /// `None` when it meets none.
+    fn any_child(r: &Self::NodeRay, node: &WideNode<N>, tmax: f32, stack: &mut Stack<u32>) -> Option<u32>;
+    /// Tests a leaf's packets for hits nearer than `tmax`, updates `best` (by [`closer`]) and
+    /// returns the new `tmax`.
+    fn closest_in_leaf(r: &Self::LeafRay, packets: &[TriPacket], tmax: f32, best: &mut Option<Hit>) -> f32;
+    /// Whether the ray hits a triangle of a leaf's packets before `tmax`.
+    fn any_in_leaf(r: &Self::LeafRay, packets: &[TriPacket], tmax: f32) -> bool;
+}
+
+/// Closest hit. The tree is not empty and the ray is traceable.
+#[inline(always)]
+pub(super) fn closest<const N: usize, K: Kernel<N>>(bvh: &WideBvh<N>, ray: &Ray) -> Option<Hit> {
+    let node_ray = K::node_ray(ray);
+    let leaf_ray = K::leaf_ray(ray);
+    let mut tmax = ray.tmax;
+    let mut best = None;
+    let mut stack = Stack::<Entry>::new();
+    let mut cur = 0u32;
+    loop {
+        if cur & LEAF == 0 {
+            if let Some(child) = K::nearest_child(&node_ray, &bvh.nodes[cur as usize], tmax, &mut stack) {
+                cur = child;
+                continue;
+            }
+        } else {
+            tmax = K::closest_in_leaf(&leaf_ray, &bvh.packets[leaf_packets(cur)], tmax, &mut best);
+        }
+        match stack.pop_within(tmax) {
+            Some(child) => cur = child,
+            None => return best,
+        }
+    }
+}
+
+/// Any hit. The tree is not empty and the ray is traceable.
+#[inline(always)]
+pub(super) fn occluded<const N: usize, K: Kernel<N>>(bvh: &WideBvh<N>, ray: &Ray) -> bool {
+    let node_ray = K::node_ray(ray);
+    let leaf_ray = K::leaf_ray(ray);
+    let tmax = ray.tmax;
+    let mut stack = Stack::<u32>::new();
+    let mut cur = 0u32;
+    loop {
+        // The next node: a child the ray meets, else the top of the stack.
+        let child = if cur & LEAF == 0 {
+            K::any_child(&node_ray, &bvh.nodes[cur as usize], tmax, &mut stack)
+        } else if K::any_in_leaf(&leaf_ray, &bvh.packets[leaf_packets(cur)], tmax) {
+            return true;
+        } else {
+            None
+        };
+        cur = match child {
+            Some(child) => child,
+            None => match stack.pop() {
+                Some(next) => next,
+                None => return false,
+            },
+        };
+    }
+}
+
+/// Sorts the keys of the children a ray meets (`entry distance bits << 32 | slot`), pushes all
+/// but the nearest onto `stack` farthest first (so that they pop nearest first), each with its
+/// entry distance `dist[slot]`, and returns the nearest child.
+#[inline(always)]
+pub(crate) fn push_farther<const N: usize>(
+    node: &WideNode<N>,
+    keys: &mut [u64],
+    dist: &[f32; N],
+    stack: &mut Stack<Entry>,
+) -> u32 {
+    sort_keys(keys);
+    for &key in keys[1..].iter().rev() {
+        let slot = key as usize % N;
+        stack.push(Entry { child: node.child[slot], t: dist[slot] });
+    }
+    node.child[keys[0] as usize % N]
+}
+
+/// Sorts a few `(distance bits << 32 | slot)` keys ascending (insertion sort: n ≤ 8).
+#[inline(always)]
+pub(crate) fn sort_keys(keys: &mut [u64]) {
+    for i in 1..keys.len() {
+        let k = keys[i];
+        let mut j = i;
+        while j > 0 && keys[j - 1] > k {
+            keys[j] = keys[j - 1];
+            j -= 1;
+        }
+        keys[j] = k;
+    }
+}
+
+/// Traversal stack: a fixed array for the common case, spilling to the heap for deep trees, so
+/// no tree depth can overflow it and no ray pays for a large zeroed array.
+pub struct Stack<T: Copy + Default> {
+    fixed: [T; STACK_FIXED],
+    len: usize,
+    spill: Vec<T>,
+}
+const STACK_FIXED: usize = 48;
+
+impl<T: Copy + Default> Stack<T> {
+    #[inline(always)]
+    pub fn new() -> Self {
+        Self { fixed: [T::default(); STACK_FIXED], len: 0, spill: Vec::new() }
+    }
+    #[inline(always)]
+    pub fn push(&mut self, v: T) {
+        if self.len < STACK_FIXED {
+            self.fixed[self.len] = v;
+        } else {
+            self.spill.push(v);
+        }
+        self.len += 1;
+    }
+    #[inline(always)]
+    pub fn pop(&mut self) -> Option<T> {
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        if self.len < STACK_FIXED { Some(self.fixed[self.len]) } else { self.spill.pop() }
+    }
+}
+
+impl Stack<Entry> {
+    /// The child of the topmost entry not behind `tmax` (entries behind it were pushed before
+    /// a nearer hit was found, and are dropped); `None` when the stack runs out.
+    #[inline(always)]
+    pub fn pop_within(&mut self, tmax: f32) -> Option<u32> {
+        loop {
+            match self.pop() {
+                None => return None,
+                Some(e) if e.t <= tmax => return Some(e.child),
+                Some(_) => {}
+            }
+        }
+    }
+}
+
+/// A stack entry of the closest-hit walks: a child reference and its entry distance.
+#[derive(Clone, Copy, Default)]
+pub struct Entry {
+    pub child: u32,
+    pub t: f32,
+}
+
+/// Whether a candidate hit at `t` (already known to be within the current `tmax`) replaces
+/// `best`: a nearer one does, and among equally near ones the lowest primitive index (the
+/// brute-force oracle's rule). This makes the closest hit independent of the order in which
+/// leaves are visited, so the packet kernels return what the single-ray kernels return.
+#[inline(always)]
+pub(crate) fn closer(t: f32, prim: u32, best: &Option<Hit>) -> bool {
+    best.is_none_or(|b| t < b.t || (t == b.t && prim < b.prim))
+}
