@@ -1,7 +1,11 @@
 //! Command-line syntax (clap derive).
 
 use clap::{Args, FromArgMatches, Parser, Subcommand, ValueEnum};
+use glint_filter::FilterKind;
 use glint_formats::points::ColourBy;
+use glint_image::ToneMap;
+use glint_render::points::{Fill, PointShading};
+use glint_scene::RenderMode;
 use std::path::PathBuf;
 
 #[derive(Parser, Debug)]
@@ -107,9 +111,9 @@ pub struct RenderArgs {
     /// Exposure in stops (PNG output).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub exposure: f32,
-    /// Tone map for PNG output: clamp, reinhard or aces.
-    #[arg(long, default_value = "clamp")]
-    pub tonemap: String,
+    /// Tone map for PNG output.
+    #[arg(long, value_enum, default_value = "clamp")]
+    pub tonemap: ToneMapArg,
     /// Write RGBA PNG with coverage as alpha.
     #[arg(long)]
     pub alpha: bool,
@@ -128,6 +132,37 @@ pub enum ModeArg {
     Whitted,
     Path,
     Points,
+}
+
+impl From<ModeArg> for RenderMode {
+    fn from(m: ModeArg) -> Self {
+        match m {
+            ModeArg::Whitted => RenderMode::Whitted,
+            ModeArg::Path => RenderMode::Path,
+            ModeArg::Points => RenderMode::Points,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, ValueEnum)]
+pub enum ToneMapArg {
+    /// min(x, 1): exact below 1, hard clip above.
+    #[default]
+    Clamp,
+    /// x / (1 + x): never clips.
+    Reinhard,
+    /// The ACES filmic curve (Narkowicz's fit).
+    Aces,
+}
+
+impl From<ToneMapArg> for ToneMap {
+    fn from(t: ToneMapArg) -> Self {
+        match t {
+            ToneMapArg::Clamp => ToneMap::Clamp,
+            ToneMapArg::Reinhard => ToneMap::Reinhard,
+            ToneMapArg::Aces => ToneMap::Aces,
+        }
+    }
 }
 
 /// Points mode (DESIGN.md §3) and point-cloud preparation.
@@ -171,6 +206,17 @@ pub enum FillArg {
     Squares,
 }
 
+impl From<FillArg> for Fill {
+    fn from(f: FillArg) -> Self {
+        match f {
+            FillArg::Ellipses => Fill::Ellipses,
+            FillArg::PullPush => Fill::PullPush,
+            FillArg::Raw => Fill::Raw,
+            FillArg::Squares => Fill::Squares,
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, ValueEnum)]
 pub enum ShadingArg {
     #[default]
@@ -178,6 +224,17 @@ pub enum ShadingArg {
     Phong,
     Edl,
     Flat,
+}
+
+impl From<ShadingArg> for PointShading {
+    fn from(s: ShadingArg) -> Self {
+        match s {
+            ShadingArg::Auto => PointShading::Auto,
+            ShadingArg::Phong => PointShading::Phong,
+            ShadingArg::Edl => PointShading::EyeDome,
+            ShadingArg::Flat => PointShading::Flat,
+        }
+    }
 }
 
 /// `--colour-by NAME`, by the names the scene format uses.
@@ -224,6 +281,17 @@ pub enum FilterArg {
     Atrous,
     /// No filter: plain path tracing, every sample traces its own indirect light.
     None,
+}
+
+impl From<FilterArg> for FilterKind {
+    fn from(f: FilterArg) -> Self {
+        match f {
+            FilterArg::Guided => FilterKind::Guided,
+            FilterArg::Bilateral => FilterKind::Bilateral,
+            FilterArg::Atrous => FilterKind::Atrous,
+            FilterArg::None => FilterKind::None,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, ValueEnum)]

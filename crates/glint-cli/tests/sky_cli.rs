@@ -8,6 +8,7 @@ mod common;
 use common::{assert_fails_cleanly, glint, scratch, shared, stderr};
 
 use glint_image::{Image, metrics::psnr_srgb8};
+use glint_testkit::skies::smooth_latlong;
 use std::path::Path;
 
 fn ok(args: &[&str], dir: &Path) -> String {
@@ -20,28 +21,10 @@ fn read(path: &Path) -> Image {
     glint_image::read_image(path).unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// A smooth synthetic HDR lat-long map (values up to ~3), W × W/2.
-fn synthetic_latlong(width: u32) -> Image {
-    let height = width / 2;
-    let pixels: Vec<[f32; 3]> = (0..width * height)
-        .map(|i| {
-            let (u, v) = ((i % width) as f32 / width as f32, (i / width) as f32 / height as f32);
-            let phi = u * std::f32::consts::TAU;
-            let theta = v * std::f32::consts::PI;
-            [
-                0.6 + 0.5 * (2.0 * phi).sin() * theta.sin(),
-                0.5 + 0.4 * (3.0 * theta).cos(),
-                0.4 + 2.5 * (1.0 - v).powi(4) + 0.2 * phi.cos() * theta.sin(),
-            ]
-        })
-        .collect();
-    Image::from_rgb(width, height, &pixels)
-}
-
 #[test]
 fn latlong_to_faces_and_back_is_faithful() {
     let d = scratch("roundtrip");
-    glint_image::write_hdr(&d.join("env.hdr"), &synthetic_latlong(256)).unwrap();
+    glint_image::write_hdr(&d.join("env.hdr"), &smooth_latlong(256)).unwrap();
     ok(&["sky", "convert", "env.hdr", "faces", "--to", "faces"], &d);
     for name in ["px", "nx", "py", "ny", "pz", "nz"] {
         let face = read(&d.join(format!("faces/{name}.hdr")));
@@ -73,7 +56,7 @@ fn real_hdr_maps_round_trip_through_faces() {
 #[test]
 fn a_cross_becomes_faces_and_back() {
     let d = scratch("cross");
-    glint_image::write_hdr(&d.join("env.hdr"), &synthetic_latlong(64)).unwrap();
+    glint_image::write_hdr(&d.join("env.hdr"), &smooth_latlong(64)).unwrap();
     ok(&["sky", "convert", "env.hdr", "cross.exr", "--to", "cross"], &d);
     let cross = read(&d.join("cross.exr"));
     assert_eq!((cross.width, cross.height), (4 * 32, 3 * 32));
@@ -124,7 +107,7 @@ fn an_upside_down_set_is_flagged_and_flip_fixes_it() {
 #[test]
 fn ldr_output_of_hdr_warns_about_clipping() {
     let d = scratch("clip");
-    glint_image::write_hdr(&d.join("env.hdr"), &synthetic_latlong(32)).unwrap();
+    glint_image::write_hdr(&d.join("env.hdr"), &smooth_latlong(32)).unwrap();
     let msg = ok(&["sky", "convert", "env.hdr", "env.png", "--to", "latlong", "--size", "8"], &d);
     assert!(msg.contains("clipped"), "{msg}");
     assert_eq!(read(&d.join("env.png")).width, 16);
@@ -140,7 +123,7 @@ fn bad_input_fails_cleanly_without_touching_the_output() {
     std::fs::write(d.join("faces/right.png"), b"mine").unwrap();
     std::fs::write(d.join("corrupt.hdr"), b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 8 +X 16\n\x02\x02").unwrap();
     glint_image::write_hdr(&d.join("square.hdr"), &Image::from_rgb(4, 4, &[[1.0; 3]; 16])).unwrap();
-    glint_image::write_hdr(&d.join("env.hdr"), &synthetic_latlong(16)).unwrap();
+    glint_image::write_hdr(&d.join("env.hdr"), &smooth_latlong(16)).unwrap();
     std::fs::create_dir(d.join("five")).unwrap();
     for name in ["px", "nx", "py", "ny", "pz"] {
         glint_image::write_hdr(&d.join(format!("five/{name}.hdr")), &Image::from_rgb(2, 2, &[[1.0; 3]; 4])).unwrap();

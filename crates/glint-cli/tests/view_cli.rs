@@ -164,7 +164,7 @@ fn the_viewer_fails_cleanly_without_a_display_or_with_bad_options() {
     for (args, needle) in [
         (&["view", "--width", "0"][..], "--width"),
         (&["view", "--spp", "0"][..], "samples per pixel"),
-        (&["view", "--max-depth", "0"][..], "--max-depth"),
+        (&["view", "--max-depth", "65"][..], "--max-depth"),
         (&["view", "--frames", "0"][..], "--frames"),
         (&["view", "--capture", "x.jpg"][..], "--capture"),
         (&["view", "--screenshot-dir", "missing"][..], "--screenshot-dir"),

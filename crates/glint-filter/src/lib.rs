@@ -169,6 +169,63 @@ pub enum Filter {
     Atrous(AtrousParams),
 }
 
+/// The kinds of [`Filter`], without parameters: what a user chooses (`--filter`, the viewer's
+/// F key); [`Filter::for_width`] gives each its default parameters for an image size.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum FilterKind {
+    /// The guided image filter on normal and depth (the paper's method).
+    #[default]
+    Guided,
+    /// The brute-force cross-bilateral filter (the quality reference, slow).
+    Bilateral,
+    /// Edge-avoiding À-Trous wavelets.
+    Atrous,
+    /// No filter.
+    None,
+}
+
+impl Filter {
+    /// The filter of `kind` with its default parameters for an image `width` pixels wide.
+    #[must_use]
+    pub fn for_width(kind: FilterKind, width: usize) -> Filter {
+        match kind {
+            FilterKind::Guided => Filter::Guided(GuidedParams::for_width(width)),
+            FilterKind::Bilateral => Filter::Bilateral(BilateralParams::for_width(width)),
+            FilterKind::Atrous => Filter::Atrous(AtrousParams::default()),
+            FilterKind::None => Filter::None,
+        }
+    }
+
+    #[must_use]
+    pub fn kind(&self) -> FilterKind {
+        match self {
+            Filter::None => FilterKind::None,
+            Filter::Guided(_) => FilterKind::Guided,
+            Filter::Bilateral(_) => FilterKind::Bilateral,
+            Filter::Atrous(_) => FilterKind::Atrous,
+        }
+    }
+}
+
+/// The filter and its main parameter, as render summaries print it ("guided 4-D r=28").
+impl std::fmt::Display for Filter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Filter::None => write!(f, "none"),
+            Filter::Guided(p) => {
+                let dims = match p.channels {
+                    GuideChannels::Grey => "1-D",
+                    GuideChannels::Normal => "3-D",
+                    GuideChannels::NormalDepth => "4-D",
+                };
+                write!(f, "guided {dims} r={}", p.radius)
+            }
+            Filter::Bilateral(p) => write!(f, "bilateral r={}", p.radius),
+            Filter::Atrous(p) => write!(f, "A-Trous {} iterations", p.iterations),
+        }
+    }
+}
+
 /// Planes with `width * height` values each, the form every filter returns.
 pub type Planes = [Vec<f32>; 3];
 

@@ -10,4 +10,7 @@ pub enum RenderError {
     /// finite and of one size).
     #[error("filter: {0}")]
     Filter(String),
+    /// The caller cancelled the frame (its [`crate::Hooks::cancel`] flag).
+    #[error("the render was cancelled")]
+    Cancelled,
 }

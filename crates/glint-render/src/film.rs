@@ -55,6 +55,16 @@ impl Film {
         Self { width, height, pixels: vec![FilmPixel::default(); width as usize * height as usize], path_aovs: false }
     }
 
+    /// Make this a `width × height` film for a new frame, reusing its memory when the size is
+    /// the same: the pixels are left as they are (every mode writes each one), the path AOVs
+    /// are off.
+    pub fn reset(&mut self, width: u32, height: u32) {
+        if (self.width, self.height) != (width, height) {
+            *self = Film::new(width, height);
+        }
+        self.path_aovs = false;
+    }
+
     /// Take `other`'s pixel wherever it saw a surface nearer than this film's (both of one
     /// size; depth is eye depth in both): how the points mode lays traced meshes over clouds.
     pub fn composite_nearer(&mut self, other: &Film) {

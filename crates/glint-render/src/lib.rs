@@ -1,24 +1,29 @@
 //! glint-render: scene + acceleration structure → pixels.
 //!
-//! [`World`] turns a validated `Scene` into traceable geometry (a BVH per mesh, a top-level BVH
-//! over object instances, planes beside it) and answers "what does this ray hit" with everything
-//! shading needs. The driver ([`render`]) runs an integrator over the image in parallel and fills
-//! a [`Film`] (beauty + AOVs). The modes live in their own folders: `whitted/`, `path/`, `points/`.
+//! The pipeline, by module: [`World`] (`world/`) turns a validated `Scene` into traceable
+//! geometry and answers what a ray hits; the integrators (`whitted/`, `path/`, `points/`) make
+//! a mode's samples; the band driver (`bands.rs`) runs them over the image in parallel; the
+//! [`Film`] holds the beauty and the AOVs. [`Renderer`] (`frame.rs`) is the one entry point
+//! every front end calls: a scene, a camera, [`ImageSettings`] and a [`Mode`] in; a film and
+//! [`FrameStats`] out. Mode-specific names live in their module (`path::PathSettings`,
+//! `points::PointSettings`, ...); each public name has one path.
 #![forbid(unsafe_code)]
 
-pub mod driver;
-pub mod error;
-pub mod film;
+mod bands;
+mod error;
+mod film;
+mod frame;
 pub mod path;
 pub mod points;
-pub mod settings;
+mod settings;
+mod stats;
 pub mod whitted;
-pub mod world;
+mod world;
 
-pub use driver::{RenderStats, render, render_pass, render_with_progress};
+pub use bands::{Hooks, Schedule};
 pub use error::RenderError;
 pub use film::{Film, FilmPixel};
-pub use path::{PathSettings, PathStats, render_path};
-pub use points::{Fill, PointFrame, PointRenderer, PointSettings, PointShading, PointStats, render_points};
-pub use settings::{RenderSettings, Schedule};
-pub use world::{SurfaceHit, World};
+pub use frame::{Mode, ModeSettings, Picture, Renderer};
+pub use settings::{ImageSettings, WhittedSettings};
+pub use stats::{BandStats, FrameStats, RayCounts};
+pub use world::{EmissiveTriangle, NO_PRIM, SurfaceHit, World, WorldStats};

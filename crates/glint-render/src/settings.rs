@@ -1,49 +1,33 @@
-//! Render settings: the scene file's defaults, overridden by the command line.
+//! Settings of a frame: the image every mode draws ([`ImageSettings`]) and the Whitted
+//! integrator's own ([`WhittedSettings`]). The path and points modes keep theirs beside their
+//! code (`PathSettings`, `PointSettings`); each is checked against `glint_scene::limits`, the one
+//! place the ranges are written.
 
 use crate::RenderError;
+use crate::bands::Schedule;
 use glint_scene::RenderDefaults;
-use glint_scene::scene::{MAX_IMAGE_SIDE, image_size_ok};
+use glint_scene::limits::{self, MAX_IMAGE_SIDE, image_size_ok};
 
-/// How image bands are handed to threads (the thesis compares OpenMP-style static splits with
-/// TBB-style work stealing; rayon is the latter).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Schedule {
-    /// rayon work stealing over bands of rows.
-    #[default]
-    WorkStealing,
-    /// One contiguous block of bands per thread, fixed up front.
-    Static,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RenderSettings {
+/// The image of a frame, whatever the mode: its size, the seed of every random number in it,
+/// and how its bands are handed to threads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImageSettings {
     pub width: u32,
     pub height: u32,
-    /// N for N×N stratified supersampling; 1 = a single ray through each pixel centre.
-    pub samples_per_side: u32,
-    pub max_depth: u32,
-    pub min_contribution: f32,
-    /// The only source of randomness (sample jitter).
+    /// The only source of randomness: every sample stream is `hash(pixel, sample, dim, seed)`.
     pub seed: u64,
     pub schedule: Schedule,
 }
 
-/// Deepest recursion accepted (the integrator's stack is bounded by it).
-pub const MAX_DEPTH_LIMIT: u32 = 64;
-
-impl RenderSettings {
-    pub fn from_defaults(d: &RenderDefaults) -> Self {
-        Self {
-            width: d.width,
-            height: d.height,
-            samples_per_side: d.samples_per_side,
-            max_depth: d.max_depth,
-            min_contribution: d.min_contribution,
-            seed: 0,
-            schedule: Schedule::WorkStealing,
-        }
+impl ImageSettings {
+    /// A `width × height` image, seed 0, work stealing.
+    #[must_use]
+    pub fn new(width: u32, height: u32) -> Self {
+        Self { width, height, seed: 0, schedule: Schedule::WorkStealing }
     }
 
+    /// # Errors
+    /// [`RenderError::InvalidSetting`] when the size is outside the limits.
     pub fn validate(&self) -> Result<(), RenderError> {
         if !image_size_ok(self.width, self.height) {
             return Err(RenderError::InvalidSetting(format!(
@@ -51,18 +35,44 @@ impl RenderSettings {
                 self.width, self.height
             )));
         }
-        if self.samples_per_side == 0 || self.samples_per_side > 64 {
-            return Err(RenderError::InvalidSetting(format!(
-                "{} samples per side (must be 1..=64)",
-                self.samples_per_side
-            )));
-        }
-        if self.max_depth > MAX_DEPTH_LIMIT {
-            return Err(RenderError::InvalidSetting(format!(
-                "max depth {} (must be at most {MAX_DEPTH_LIMIT})",
-                self.max_depth
-            )));
-        }
+        Ok(())
+    }
+
+    pub(crate) fn pixels(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+}
+
+/// The Whitted integrator's settings (DESIGN.md §1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WhittedSettings {
+    /// N for N×N stratified supersampling; 1 = a single ray through each pixel centre.
+    pub samples_per_side: u32,
+    /// The deepest reflection/refraction chain.
+    pub max_depth: u32,
+    /// A branch whose accumulated weight falls below this is not traced.
+    pub min_contribution: f32,
+}
+
+impl Default for WhittedSettings {
+    fn default() -> Self {
+        Self::from_defaults(&RenderDefaults::default())
+    }
+}
+
+impl WhittedSettings {
+    /// The settings a scene file gives (its `[image]` samples and `[render]` section).
+    #[must_use]
+    pub fn from_defaults(d: &RenderDefaults) -> Self {
+        Self { samples_per_side: d.samples_per_side, max_depth: d.max_depth, min_contribution: d.min_contribution }
+    }
+
+    /// # Errors
+    /// [`RenderError::InvalidSetting`] naming the value out of its range.
+    pub fn validate(&self) -> Result<(), RenderError> {
+        limits::check("samples per side", self.samples_per_side, &limits::SAMPLES_PER_SIDE)
+            .and_then(|()| limits::check("max depth", self.max_depth, &limits::MAX_DEPTH))
+            .map_err(RenderError::InvalidSetting)?;
         if !(self.min_contribution.is_finite() && self.min_contribution >= 0.0) {
             return Err(RenderError::InvalidSetting("min contribution must be a finite number >= 0".into()));
         }

@@ -6,21 +6,22 @@
 
 mod common;
 
-use common::assert_matches_golden;
+use common::{Settings, render};
 use glint_core::Vec3;
 use glint_formats::sky::{FaceTransform, SkyLoadOptions, SkySource, load_sky};
-use glint_render::{RenderSettings, World};
+use glint_render::World;
 use glint_scene::{Camera, Fov};
+use glint_testkit::images::assert_matches_golden;
 use std::path::{Path, PathBuf};
 
 #[test]
 fn demo_scene_matches_its_golden_image() {
     let loaded = glint_formats::load_scene_str(glint_formats::DEMO_SCENE, Path::new("."), "demo").unwrap();
     let world = World::new(loaded.scene);
-    let mut settings = RenderSettings::from_defaults(&world.scene.render);
+    let mut settings = Settings::from_defaults(&world.scene().render);
     settings.width = 192;
     settings.height = 108;
-    let (film, stats) = glint_render::render(&world, &settings).unwrap();
+    let (film, stats) = render(&world, &settings).unwrap();
     assert_eq!(stats.rejected_samples, 0);
     assert_matches_golden("demo", &film.beauty_image(false));
 }
@@ -105,9 +106,9 @@ fn every_shipped_sky_renders_like_its_golden_image() {
             fov: Fov::Vertical(90.0),
         };
         let world = World::new(scene);
-        let mut settings = RenderSettings::from_defaults(&world.scene.render);
+        let mut settings = Settings::from_defaults(&world.scene().render);
         (settings.width, settings.height) = (160, 120);
-        let (film, stats) = glint_render::render(&world, &settings).unwrap();
+        let (film, stats) = render(&world, &settings).unwrap();
         assert_eq!(stats.rejected_samples, 0, "{name}");
         assert_matches_golden(name, &film.beauty_image(false));
     }

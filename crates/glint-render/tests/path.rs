@@ -6,13 +6,14 @@
 
 mod common;
 
-use common::settings;
+use common::{add_path_pass, path_frame, settings};
 use glint_core::chi2::chi2_sphere;
 use glint_core::random::SampleStream;
 use glint_core::{Affine3A, Rgb, Vec3};
 use glint_filter::{Filter, GuidedParams};
+use glint_render::path::PathSettings;
 use glint_render::path::lights::LightSet;
-use glint_render::{Film, PathSettings, World, render_path};
+use glint_render::{Film, World};
 use glint_scene::{Camera, Fov, Material, Object, Scene, Shape, Sky};
 use std::sync::Arc;
 
@@ -25,6 +26,7 @@ fn path(spp: u32, bounces: u32, filter: Filter) -> PathSettings {
         spp,
         max_bounces: bounces,
         rr_start: 64,
+        max_chain: 8,
         filter,
         time_budget: None,
         clamp_indirect: None,
@@ -34,7 +36,7 @@ fn path(spp: u32, bounces: u32, filter: Filter) -> PathSettings {
 
 fn render(scene: Scene, w: u32, h: u32, p: &PathSettings) -> Film {
     let world = World::new(scene);
-    render_path(&world, &settings(w, h), p, &|_| {}).expect("render").0
+    path_frame(&world, &settings(w, h), p).expect("render").0
 }
 
 /// Mean and standard error of the luminance-free red channel over pixels that pass `keep`.
@@ -151,7 +153,7 @@ fn same_image_on_one_and_two_threads() {
     for p in [path(2, 2, Filter::None), path(3, 1, Filter::Guided(GuidedParams::for_width(64)))] {
         let run = |threads: usize| {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            pool.install(|| render_path(&world, &settings(64, 40), &p, &|_| {}).expect("render").0)
+            pool.install(|| path_frame(&world, &settings(64, 40), &p).expect("render").0)
         };
         let (a, b) = (run(1), run(2));
         assert!(a.pixels == b.pixels, "{p:?}: images differ between 1 and 2 threads");
@@ -254,9 +256,9 @@ fn progressive_passes_match_render_path() {
     // With and without the area light's direct light in the filtered part.
     for (filter, filter_area_direct) in [(Filter::None, false), (guided, false), (guided, true)] {
         let p = PathSettings { filter_area_direct, ..path(1, 2, filter) };
-        let (reference, _) = render_path(&world, &s, &p, &|_| {}).expect("render");
+        let (reference, _) = path_frame(&world, &s, &p).expect("render");
         let mut acc = PathAccumulator::new();
-        acc.add_pass(&world, &s, &p).expect("pass");
+        add_path_pass(&mut acc, &world, &s, &p).expect("pass");
         let mut film = Film::new(1, 1);
         acc.resolve(&world, &filter, &mut film).expect("resolve");
         let colours = |f: &Film| f.pixels.iter().map(|p| p.colour).collect::<Vec<_>>();
@@ -267,12 +269,12 @@ fn progressive_passes_match_render_path() {
     let p = path(1, 2, Filter::None);
     let mut acc = PathAccumulator::new();
     for _ in 0..8 {
-        acc.add_pass(&world, &s, &p).expect("pass");
+        add_path_pass(&mut acc, &world, &s, &p).expect("pass");
     }
     assert_eq!((acc.passes(), acc.samples_per_pixel()), (8, 8));
     let mut film = Film::new(1, 1);
     acc.resolve(&world, &Filter::None, &mut film).expect("resolve");
-    let (reference, _) = render_path(&world, &s, &path(8, 2, Filter::None), &|_| {}).expect("render");
+    let (reference, _) = path_frame(&world, &s, &path(8, 2, Filter::None)).expect("render");
     assert!(film.pixels.iter().zip(&reference.pixels).all(|(a, b)| a.colour == b.colour), "8 passes != 8 spp");
     // The filtered accumulation keeps the image's mean (the filter moves light, it does not
     // make or lose it) and it is the same on 1 and 2 threads.
@@ -281,7 +283,7 @@ fn progressive_passes_match_render_path() {
         pool.install(|| {
             let mut acc = PathAccumulator::new();
             for _ in 0..4 {
-                acc.add_pass(&world, &s, &p).expect("pass");
+                add_path_pass(&mut acc, &world, &s, &p).expect("pass");
             }
             let mut film = Film::new(1, 1);
             acc.resolve(&world, &guided, &mut film).expect("resolve");
@@ -294,7 +296,7 @@ fn progressive_passes_match_render_path() {
     let plain = {
         let mut acc = PathAccumulator::new();
         for _ in 0..4 {
-            acc.add_pass(&world, &s, &p).expect("pass");
+            add_path_pass(&mut acc, &world, &s, &p).expect("pass");
         }
         let mut film = Film::new(1, 1);
         acc.resolve(&world, &Filter::None, &mut film).expect("resolve");
@@ -318,10 +320,10 @@ fn progressive_pass_after_reset_or_resize_starts_clean() {
     let guided = Filter::Guided(GuidedParams::for_width(43));
     for (spp, filter) in [(1, guided), (3, Filter::None)] {
         let p = path(spp, 1, filter);
-        let (reference, _) = render_path(&world, &s, &p, &|_| {}).expect("render");
+        let (reference, _) = path_frame(&world, &s, &p).expect("render");
         let mut fresh = Film::new(1, 1);
         let mut acc = PathAccumulator::new();
-        acc.add_pass(&world, &s, &p).expect("pass");
+        add_path_pass(&mut acc, &world, &s, &p).expect("pass");
         acc.resolve(&world, &filter, &mut fresh).expect("resolve");
         assert!(
             fresh.pixels.iter().zip(&reference.pixels).all(|(a, b)| a.colour == b.colour),
@@ -329,12 +331,12 @@ fn progressive_pass_after_reset_or_resize_starts_clean() {
         );
         let mut film = Film::new(1, 1);
         let mut acc = PathAccumulator::new();
-        acc.add_pass(&world, &settings(24, 30), &p).expect("pass");
-        acc.add_pass(&world, &s, &p).expect("pass");
-        acc.add_pass(&world, &s, &p).expect("pass");
+        add_path_pass(&mut acc, &world, &settings(24, 30), &p).expect("pass");
+        add_path_pass(&mut acc, &world, &s, &p).expect("pass");
+        add_path_pass(&mut acc, &world, &s, &p).expect("pass");
         acc.resolve(&world, &filter, &mut film).expect("resolve");
         acc.reset();
-        acc.add_pass(&world, &s, &p).expect("pass");
+        add_path_pass(&mut acc, &world, &s, &p).expect("pass");
         acc.resolve(&world, &filter, &mut film).expect("resolve");
         assert!(film.pixels == fresh.pixels, "spp {spp}, {filter:?}: a reused accumulator differs");
     }

@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::settings;
+use common::{render, settings};
 
 use glint_core::{Affine3A, Rgb, Vec3};
 use glint_render::World;
@@ -61,7 +61,7 @@ fn psnr(a: &[Rgb], b: &[Rgb]) -> f64 {
 
 fn render_colours(scene: Scene, w: u32, h: u32) -> Vec<Rgb> {
     scene.validate().unwrap();
-    let (film, stats) = glint_render::render(&World::new(scene), &settings(w, h)).unwrap();
+    let (film, stats) = render(&World::new(scene), &settings(w, h)).unwrap();
     assert_eq!(stats.rejected_samples, 0);
     film.pixels.iter().map(|p| p.colour).collect()
 }
@@ -123,11 +123,7 @@ fn moving_the_camera_leaves_the_sky_bit_identical() {
 #[test]
 fn minified_faces_do_not_alias() {
     let n = 1024usize;
-    let checks = TextureImage {
-        width: n as u32,
-        height: n as u32,
-        texels: (0..n * n).map(|i| if (i % n + i / n).is_multiple_of(2) { Rgb::ZERO } else { Rgb::ONE }).collect(),
-    };
+    let checks = glint_testkit::skies::checker_face(n);
     let map = Arc::new(CubeMap::from_faces(std::array::from_fn(|_| checks.clone())).unwrap());
     let camera =
         Camera { position: Vec3::ZERO, forward: Vec3::new(0.2, 0.1, -1.0), up: Vec3::Y, fov: Fov::Vertical(90.0) };
@@ -174,7 +170,7 @@ fn schlick_reflection_follows_the_viewing_angle() {
     let (w, h) = (33, 33);
     scene.validate().unwrap();
     let world = World::new(scene.clone());
-    let (film, _) = glint_render::render(&world, &settings(w, h)).unwrap();
+    let (film, _) = render(&world, &settings(w, h)).unwrap();
     let rays = scene.camera.rays(w, h);
     for (x, y) in [(16, 16), (16, 4), (16, 30), (2, 28)] {
         let r = rays.ray(glint_core::Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
@@ -194,7 +190,7 @@ fn schlick_reflection_follows_the_viewing_angle() {
         ..Material::default()
     });
     blocked.objects.push(object(Shape::Sphere { centre: Vec3::new(0.0, 1.0, -2.0), radius: 0.9 }, 1));
-    let (film2, _) = glint_render::render(&World::new(blocked), &settings(w, h)).unwrap();
+    let (film2, _) = render(&World::new(blocked), &settings(w, h)).unwrap();
     let (a, b) = (film.pixel(16, 16).colour.x, film2.pixel(16, 16).colour.x);
     assert!(b < 0.5 * a, "the occluder should show in the reflection: {b} vs {a}");
 }

@@ -4,10 +4,10 @@
 
 mod common;
 
-use common::settings;
+use common::{Settings, render, render_pass, settings};
 
 use glint_core::{Affine3A, Quat, Ray, Rgb, Vec3};
-use glint_render::{RenderSettings, Schedule, World};
+use glint_render::{Schedule, World};
 use glint_scene::{Attenuation, Camera, Fov, Light, Material, Mesh, Object, Scene, Shape, Sky};
 use std::sync::Arc;
 
@@ -20,7 +20,7 @@ fn matte(colour: Rgb) -> Material {
 }
 
 fn centre_colour(world: &World, w: u32, h: u32) -> Rgb {
-    let (film, _) = glint_render::render(world, &settings(w, h)).expect("valid settings");
+    let (film, _) = render(world, &settings(w, h)).expect("valid settings");
     film.pixel(w / 2, h / 2).colour
 }
 
@@ -135,7 +135,7 @@ fn facing_mirrors_terminate_at_max_depth() {
         let mut s = settings(1, 1);
         s.max_depth = depth;
         s.min_contribution = 0.0;
-        let (film, stats) = glint_render::render(&world, &s).unwrap();
+        let (film, stats) = render(&world, &s).unwrap();
         let want: f32 = (0..=depth).map(|k| 0.5f32.powi(k as i32)).sum();
         let got = film.pixel(0, 0).colour.x;
         assert!((got - want).abs() < 1e-5, "depth {depth}: {got} vs {want}");
@@ -183,7 +183,7 @@ fn glass_transmits_by_fresnel_and_refracted_rays_see_the_sky() {
     let mut s = settings(1, 1);
     s.max_depth = 30;
     s.min_contribution = 0.0;
-    let (film, _) = glint_render::render(&World::new(scene), &s).unwrap();
+    let (film, _) = render(&World::new(scene), &s).unwrap();
     // With a white sky on both sides, reflection + transmission of all orders sum to 1.
     let c = film.pixel(0, 0).colour;
     assert!((c - Rgb::ONE).abs().max_element() < 2e-3, "{c}");
@@ -211,7 +211,7 @@ fn no_self_intersection_far_from_the_origin() {
             }],
             ..Scene::default()
         };
-        let (film, _) = glint_render::render(&World::new(scene), &settings(48, 48)).unwrap();
+        let (film, _) = render(&World::new(scene), &settings(48, 48)).unwrap();
         film
     };
     let near = make(Vec3::ZERO);
@@ -317,8 +317,8 @@ fn bit_identical_on_one_and_two_threads() {
     s.seed = 7;
     let run = |threads: usize, schedule: Schedule| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        let s = RenderSettings { schedule, ..s };
-        pool.install(|| glint_render::render(&world, &s).unwrap().0)
+        let s = Settings { schedule, ..s };
+        pool.install(|| render(&world, &s).unwrap().0)
     };
     let a = run(1, Schedule::WorkStealing);
     let bits = |f: &glint_render::Film| -> Vec<u32> {
@@ -334,8 +334,8 @@ fn bit_identical_on_one_and_two_threads() {
     }
     // A different seed moves the jittered samples.
     let c = {
-        let s = RenderSettings { seed: 8, ..s };
-        glint_render::render(&world, &s).unwrap().0
+        let s = Settings { seed: 8, ..s };
+        render(&world, &s).unwrap().0
     };
     assert!(bits(&a) != bits(&c));
 }
@@ -344,12 +344,12 @@ fn bit_identical_on_one_and_two_threads() {
 fn impossible_settings_are_errors_not_panics() {
     let world = World::new(demo_like_scene());
     for s in [
-        RenderSettings { width: 0, ..settings(8, 8) },
-        RenderSettings { samples_per_side: 0, ..settings(8, 8) },
-        RenderSettings { max_depth: 10_000, ..settings(8, 8) },
-        RenderSettings { min_contribution: f32::NAN, ..settings(8, 8) },
+        Settings { width: 0, ..settings(8, 8) },
+        Settings { samples_per_side: 0, ..settings(8, 8) },
+        Settings { max_depth: 10_000, ..settings(8, 8) },
+        Settings { min_contribution: f32::NAN, ..settings(8, 8) },
     ] {
-        assert!(glint_render::render(&world, &s).is_err());
+        assert!(render(&world, &s).is_err());
     }
 }
 
@@ -406,13 +406,13 @@ fn progressive_passes_converge_to_the_supersampled_image() {
     let scene = glint_formats::load_scene_str(text, std::path::Path::new("."), "bench.toml").expect("scene").scene;
     let world = World::new(scene);
     let s = settings(64, 40);
-    let (single, _) = glint_render::render(&world, &s).expect("render");
-    let (pass0, _) = glint_render::render_pass(&world, &s, 0).expect("pass");
+    let (single, _) = render(&world, &s).expect("render");
+    let (pass0, _) = render_pass(&world, &s, 0).expect("pass");
     assert!(pass0.pixels == single.pixels, "pass 0 is the centre-sample render");
-    let (reference, _) = glint_render::render(&world, &RenderSettings { samples_per_side: 8, ..s }).expect("render");
+    let (reference, _) = render(&world, &Settings { samples_per_side: 8, ..s }).expect("render");
     let mut sum = vec![Rgb::ZERO; pass0.pixels.len()];
     for k in 0..64 {
-        let (f, _) = glint_render::render_pass(&world, &s, k).expect("pass");
+        let (f, _) = render_pass(&world, &s, k).expect("pass");
         for (acc, p) in sum.iter_mut().zip(&f.pixels) {
             *acc += p.colour;
         }
@@ -425,7 +425,7 @@ fn progressive_passes_converge_to_the_supersampled_image() {
     assert!(e_mean < 0.25 * e_single, "64 passes {e_mean} vs one {e_single}");
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| glint_render::render_pass(&world, &s, 5).expect("pass").0)
+        pool.install(|| render_pass(&world, &s, 5).expect("pass").0)
     };
     assert!(run(1).pixels == run(2).pixels);
 }

@@ -12,6 +12,7 @@ pub mod animation;
 pub mod camera;
 pub mod error;
 pub mod light;
+pub mod limits;
 pub mod material;
 pub mod mesh;
 pub mod object;

@@ -4,20 +4,7 @@ use crate::{Animation, Camera, CloudObject, Light, Material, Mesh, Object, Scene
 use glint_core::{Bounds3, Rgb, Vec3};
 use std::sync::Arc;
 
-/// Largest image side accepted.
-pub const MAX_IMAGE_SIDE: u32 = 32_768;
-/// Most pixels accepted in one image (2^27, e.g. 16384 × 8192: a film of about 6 GB; the PNG
-/// and EXR writers share the limit).
-pub const MAX_IMAGE_PIXELS: u64 = 1 << 27;
-
-/// Whether a `width × height` image is within the limits.
-pub fn image_size_ok(width: u32, height: u32) -> bool {
-    width > 0
-        && height > 0
-        && width <= MAX_IMAGE_SIDE
-        && height <= MAX_IMAGE_SIDE
-        && width as u64 * height as u64 <= MAX_IMAGE_PIXELS
-}
+pub use crate::limits::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, image_size_ok};
 
 /// Render settings a scene file may give; the CLI overrides them.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -44,6 +31,18 @@ pub enum RenderMode {
     Path,
     /// Point clouds by pull-push reconstruction (meshes, if any, traced Whitted-style beside).
     Points,
+}
+
+impl RenderMode {
+    /// The mode's name as summaries and the viewer show it.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            RenderMode::Whitted => "Whitted",
+            RenderMode::Path => "path",
+            RenderMode::Points => "points",
+        }
+    }
 }
 
 impl Default for RenderDefaults {

@@ -3,7 +3,8 @@
 
 use glint_core::Rgb;
 use glint_core::colour::linear_to_srgb;
-use glint_render::{Film, PointFrame};
+use glint_render::Film;
+use glint_render::points::PointFrame;
 use rayon::prelude::*;
 
 /// The channel on screen; the display key cycles through them.
@@ -253,5 +254,31 @@ mod tests {
         let mut dst = vec![0; 9];
         upscale(&src, 2, 2, &mut dst, 3, 3);
         assert_eq!(dst, [1, 1, 2, 1, 1, 2, 3, 3, 4]);
+    }
+
+    /// A points frame of clouds alone is displayed straight from the points buffers; the film
+    /// made from it on demand (screenshots) shows the same picture in every channel.
+    #[test]
+    fn a_points_frame_displays_as_its_film() {
+        use glint_render::{Hooks, ImageSettings, ModeSettings, Picture, Renderer};
+        let mut clouds = glint_testkit::scenes::cloud_and_sphere();
+        clouds.objects.clear();
+        let camera = clouds.camera;
+        let mode = ModeSettings::from_defaults(&clouds.render).mode(glint_scene::RenderMode::Points);
+        let mut r = Renderer::new(clouds).unwrap();
+        r.render(&camera, &ImageSettings::new(48, 32), &mode, &Hooks::default()).unwrap();
+        let (mut shown, mut from_film) = (Vec::new(), Vec::new());
+        for what in Display::ALL {
+            match r.picture() {
+                Picture::Points(frame) => display_points(frame, what, &mut shown),
+                Picture::Film(_) => panic!("clouds alone are held as a points frame"),
+            }
+            display(r.film(), what, &mut from_film);
+            assert_eq!(shown, from_film, "{what:?}");
+            if what == Display::Beauty {
+                assert!(shown.iter().collect::<std::collections::HashSet<_>>().len() > 3, "lit points and sky");
+            }
+        }
+        assert_eq!(r.size(), (48, 32));
     }
 }

@@ -2,8 +2,9 @@
 //! window:
 //! - `camera`: fly and orbit control (speeds from the scene's size) producing a
 //!   `glint_scene::Camera`, which the renderers draw like any other;
-//! - `frame`: the renderers of one scene, drawing a frame afresh or refining the one on screen
-//!   (Whitted supersampling passes, the path mode's filtered accumulation), with per-stage times;
+//! - `frame`: what a frame is drawn with (mode, every mode's settings, filter); the frame itself
+//!   is drawn by `glint_render::Renderer`, the same entry point `glint render` calls, afresh or
+//!   refining the picture on screen;
 //! - `display`: the beauty or an AOV as 0RGB pixels, scaled up from a reduced resolution;
 //! - `overlay`: statistics and key help drawn as bitmap text;
 //! - `viewer`: the frame loop without a window — input and key actions in, the window's frame
@@ -22,5 +23,5 @@ pub mod window;
 pub use camera::{CameraController, ControlMode, InputState};
 pub use display::{Display, display, to_pixels};
 pub use error::ViewError;
-pub use frame::{FilterKind, FrameRenderer, FrameStats, ViewMode, ViewSettings};
+pub use frame::ViewSettings;
 pub use viewer::{Action, FrameOutcome, Viewer, ViewerOptions};

@@ -13,10 +13,13 @@
 use crate::ViewError;
 use crate::camera::{CameraController, ControlMode, InputState};
 use crate::display::{Display, upscale};
-use crate::frame::{FrameRenderer, FrameStats, ViewMode, ViewSettings};
+use crate::display::{display, display_points};
+use crate::frame::{ViewSettings, filter_name, ms, next_filter, rate};
 use crate::overlay;
-use glint_render::{Fill, path::MAX_BOUNCES as MAX_PATH_BOUNCES};
-use glint_scene::{Camera, Scene};
+use glint_render::points::Fill;
+use glint_render::{FrameStats, Hooks, Picture, Renderer};
+use glint_scene::limits;
+use glint_scene::{Camera, RenderMode, Scene};
 use std::path::{Path, PathBuf};
 
 /// The frame time the adaptive resolution aims at while the camera moves (30 fps).
@@ -32,7 +35,7 @@ const MESSAGE_SECONDS: f32 = 4.0;
 /// What a key does (the window maps keys to these; see [`KEYS`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Action {
-    Mode(ViewMode),
+    Mode(RenderMode),
     /// Path: the next filter; points: the next fill.
     CycleFilter,
     MoreSamples,
@@ -79,7 +82,7 @@ pub struct ViewerOptions {
     pub width: u32,
     pub height: u32,
     /// None: the scene's mode (points for a cloud-only scene).
-    pub mode: Option<ViewMode>,
+    pub mode: Option<RenderMode>,
     pub control: ControlMode,
     /// Starting settings (spp, bounces, filter, points settings); width/height/mode are set
     /// from the fields above.
@@ -119,7 +122,7 @@ pub struct FrameOutcome {
 }
 
 pub struct Viewer {
-    renderer: FrameRenderer,
+    renderer: Renderer,
     pub camera: CameraController,
     home: CameraController,
     /// The window's size and the current settings.
@@ -157,28 +160,27 @@ impl Viewer {
         }
         let bounds = scene.bounds();
         let camera = CameraController::new(&scene.camera, bounds, options.control);
-        let scene_mode = match scene.render.mode {
-            glint_scene::RenderMode::Whitted => ViewMode::Whitted,
-            glint_scene::RenderMode::Path => ViewMode::Path,
-            glint_scene::RenderMode::Points => ViewMode::Points,
-        };
-        let renderer = FrameRenderer::new(scene)?;
-        let mut mode = options.mode.unwrap_or(scene_mode);
+        let defaults = scene.render;
+        let renderer = Renderer::new(scene)?;
+        let mut mode = options.mode.unwrap_or(defaults.mode);
         if options.mode.is_none() && !renderer.supports(mode) {
-            mode = [ViewMode::Points, ViewMode::Whitted].into_iter().find(|m| renderer.supports(*m)).unwrap_or(mode);
+            mode =
+                [RenderMode::Points, RenderMode::Whitted].into_iter().find(|m| renderer.supports(*m)).unwrap_or(mode);
         }
         if !renderer.supports(mode) {
             return Err(ViewError::Setting(format!(
                 "the {} mode has nothing to draw in this scene ({})",
                 mode.name(),
-                if mode == ViewMode::Points { "no point clouds" } else { "only point clouds" }
+                if mode == RenderMode::Points { "no point clouds" } else { "only point clouds" }
             )));
         }
-        let mut settings = options.settings.unwrap_or_else(|| ViewSettings::new(options.width, options.height, mode));
+        let mut settings =
+            options.settings.unwrap_or_else(|| ViewSettings::new(options.width, options.height, mode, &defaults));
         settings.width = options.width;
         settings.height = options.height;
         settings.mode = mode;
-        settings.path.validate()?;
+        settings.modes.path.validate()?;
+        settings.modes.whitted.validate()?;
         Ok(Self {
             renderer,
             camera,
@@ -214,7 +216,7 @@ impl Viewer {
         (self.settings.width, self.settings.height)
     }
 
-    pub fn renderer(&self) -> &FrameRenderer {
+    pub fn renderer(&self) -> &Renderer {
         &self.renderer
     }
 
@@ -261,11 +263,12 @@ impl Viewer {
     }
 
     fn final_picture(&self) -> bool {
-        match self.settings.mode {
-            ViewMode::Points => true,
-            ViewMode::Whitted => self.renderer.accumulated() >= self.max_accumulation.min(WHITTED_MAX_PASSES),
-            ViewMode::Path => self.renderer.accumulated() >= self.max_accumulation,
-        }
+        let cap = match self.settings.mode {
+            RenderMode::Points => 1,
+            RenderMode::Whitted => self.max_accumulation.min(WHITTED_MAX_PASSES),
+            RenderMode::Path => self.max_accumulation,
+        };
+        self.renderer.accumulated() >= cap
     }
 
     /// Apply a key's action. Returns false for [`Action::Quit`].
@@ -276,41 +279,45 @@ impl Viewer {
             Action::Mode(m) => {
                 if self.renderer.supports(m) {
                     s.mode = m;
-                    if m != ViewMode::Path && matches!(self.display, Display::Direct | Display::Indirect) {
+                    if m != RenderMode::Path && matches!(self.display, Display::Direct | Display::Indirect) {
                         self.display = Display::Beauty;
                     }
                 } else {
-                    let why = if m == ViewMode::Points { "no point clouds" } else { "only point clouds" };
+                    let why = if m == RenderMode::Points { "no point clouds" } else { "only point clouds" };
                     self.say(format!("{} mode: this scene has {why}", m.name()));
                     return Ok(true);
                 }
             }
             Action::CycleFilter => match s.mode {
-                ViewMode::Points => {
-                    s.points.fill = match s.points.fill {
+                RenderMode::Points => {
+                    s.modes.points.fill = match s.modes.points.fill {
                         Fill::Ellipses => Fill::PullPush,
                         Fill::PullPush => Fill::Raw,
                         Fill::Raw => Fill::Squares,
                         Fill::Squares => Fill::Ellipses,
                     }
                 }
-                _ => s.filter = s.filter.next(),
+                _ => s.filter = next_filter(s.filter),
             },
-            Action::MoreSamples => s.path.spp = (s.path.spp * 2).min(64),
-            Action::FewerSamples => s.path.spp = (s.path.spp / 2).max(1),
+            Action::MoreSamples => s.modes.path.spp = (s.modes.path.spp * 2).min(64),
+            Action::FewerSamples => s.modes.path.spp = (s.modes.path.spp / 2).max(1),
             Action::MoreBounces | Action::FewerBounces => {
                 let up = action == Action::MoreBounces;
-                let step = |v: u32, max: u32| if up { (v + 1).min(max) } else { v.saturating_sub(1) };
+                let step = |v: u32, range: &std::ops::RangeInclusive<u32>| {
+                    if up { (v + 1).min(*range.end()) } else { v.saturating_sub(1).max(*range.start()) }
+                };
                 match s.mode {
-                    ViewMode::Whitted => s.max_depth = step(s.max_depth, 64).max(1),
-                    _ => s.path.max_bounces = step(s.path.max_bounces, MAX_PATH_BOUNCES),
+                    RenderMode::Whitted => {
+                        s.modes.whitted.max_depth = step(s.modes.whitted.max_depth, &limits::MAX_DEPTH)
+                    }
+                    _ => s.modes.path.max_bounces = step(s.modes.path.max_bounces, &limits::MAX_BOUNCES),
                 }
             }
             Action::FinerResolution => self.divisor = (self.divisor - 1).max(1),
             Action::CoarserResolution => self.divisor = (self.divisor + 1).min(4),
             Action::ToggleAdaptive => self.adaptive = !self.adaptive,
             Action::CycleDisplay => {
-                self.display = self.display.next(s.mode == ViewMode::Path);
+                self.display = self.display.next(s.mode == RenderMode::Path);
                 self.redisplay();
                 return Ok(true);
             }
@@ -374,7 +381,6 @@ impl Viewer {
         let (w, h) = self.size();
         let (rw, rh) = ((w / divisor).max(1), (h / divisor).max(1));
         let restart = moving || self.dirty || self.last_camera != Some(camera) || (rw, rh) != self.renderer.size();
-        let settings = ViewSettings { width: rw, height: rh, ..self.settings.clone() };
         if !restart && self.final_picture() {
             self.last.drew = false;
             self.last.restarted = false;
@@ -383,9 +389,10 @@ impl Viewer {
             }
             return Ok(&self.last);
         }
-        let stats = self.renderer.draw(&camera, &settings, !restart)?;
+        let (image, mode) = self.settings.frame(rw, rh);
+        let stats = self.renderer.add_pass(&camera, &image, &mode, restart, &Hooks::default())?;
         if restart {
-            let ms = stats.total_ms / (rw as f64 * rh as f64);
+            let ms = ms(stats.elapsed) / (rw as f64 * rh as f64);
             let old = self.ms_per_pixel[mode_index];
             self.ms_per_pixel[mode_index] = if old == 0.0 { ms } else { 0.5 * (old + ms) };
         }
@@ -417,7 +424,10 @@ impl Viewer {
 
     /// Compose the window's frame from the film: channel, upscale, statistics.
     fn redisplay(&mut self) {
-        self.renderer.show(self.display, &mut self.frame_pixels);
+        match self.renderer.picture() {
+            Picture::Film(film) => display(film, self.display, &mut self.frame_pixels),
+            Picture::Points(frame) => display_points(frame, self.display, &mut self.frame_pixels),
+        }
         let (fw, fh) = self.renderer.size();
         let (w, h) = (self.settings.width as usize, self.settings.height as usize);
         if (fw as usize, fh as usize) == (w, h) {
@@ -446,31 +456,31 @@ impl Viewer {
         let (rw, rh) = o.render_size;
         let reduced =
             if (rw, rh) != self.size() && rw > 0 { format!(" (1/{})", s.width / rw.max(1)) } else { String::new() };
+        let m = &s.modes;
         let what = match s.mode {
-            ViewMode::Whitted => format!("max depth {}", s.max_depth),
-            ViewMode::Path => {
-                format!("filter {}, {} spp/frame, {} bounces", s.filter.name(), s.path.spp, s.path.max_bounces)
+            RenderMode::Whitted => format!("max depth {}", m.whitted.max_depth),
+            RenderMode::Path => {
+                format!("filter {}, {} spp/frame, {} bounces", filter_name(s.filter), m.path.spp, m.path.max_bounces)
             }
-            ViewMode::Points => format!("fill {:?}", s.points.fill).to_lowercase(),
+            RenderMode::Points => format!("fill {:?}", m.points.fill).to_lowercase(),
         };
         let mut lines = vec![
             format!("{}  |  {}  {}x{}{reduced}  |  {what}", self.title, s.mode.name(), rw, rh),
             format!(
                 "{} fps  {:.1} ms:  {}",
                 if self.fps > 0.0 { format!("{:.1}", self.fps) } else { "-".into() },
-                o.stats.total_ms,
-                o.stats.stages.iter().map(|(n, ms)| format!("{n} {ms:.1}")).collect::<Vec<_>>().join("  ")
+                ms(o.stats.elapsed),
+                o.stats.stages.iter().map(|(n, d)| format!("{n} {:.1}", ms(*d))).collect::<Vec<_>>().join("  ")
             ),
         ];
         let accumulated = match s.mode {
-            ViewMode::Whitted => format!("{} passes", self.renderer.accumulated()),
-            ViewMode::Path => format!("{} spp", self.renderer.accumulated()),
-            ViewMode::Points => "exact".into(),
+            RenderMode::Whitted => format!("{} passes", self.renderer.accumulated()),
+            RenderMode::Path => format!("{} spp", self.renderer.accumulated()),
+            RenderMode::Points => "exact".into(),
         };
+        let (rate, unit) = rate(&o.stats);
         lines.push(format!(
-            "{:.1} {}  |  {accumulated}  |  display {}  |  camera {:?}{}",
-            o.stats.mrate,
-            o.stats.rate_unit,
+            "{rate:.1} {unit}  |  {accumulated}  |  display {}  |  camera {:?}{}",
             self.display.name(),
             self.camera.mode,
             if self.adaptive { "" } else { "  |  fixed resolution" }
@@ -511,14 +521,14 @@ fn next_free_names(dir: &Path) -> Result<(PathBuf, PathBuf), ViewError> {
 mod tests {
     #![allow(clippy::unwrap_used, clippy::expect_used)]
     use super::*;
-    use crate::FilterKind;
     use glint_core::Vec2;
+    use glint_filter::FilterKind;
     use glint_scene::{AnimationTarget, Motion, Rotation};
 
-    fn viewer(mode: ViewMode, w: u32, h: u32) -> Viewer {
+    fn viewer(mode: RenderMode, w: u32, h: u32) -> Viewer {
         let options =
             ViewerOptions { width: w, height: h, mode: Some(mode), max_accumulation: 6, ..Default::default() };
-        Viewer::new(crate::frame::tests::scene(), "test", options).unwrap()
+        Viewer::new(glint_testkit::scenes::cloud_and_sphere(), "test", options).unwrap()
     }
 
     fn turn() -> InputState {
@@ -527,7 +537,7 @@ mod tests {
 
     #[test]
     fn a_resting_picture_refines_until_final_then_frames_cost_nothing() {
-        for mode in [ViewMode::Whitted, ViewMode::Path] {
+        for mode in [RenderMode::Whitted, RenderMode::Path] {
             let mut v = viewer(mode, 64, 40);
             let rest = InputState::default();
             let mut drawn = 0;
@@ -546,7 +556,7 @@ mod tests {
             assert!(!v.is_idle());
         }
         // Points: one frame is final.
-        let mut v = viewer(ViewMode::Points, 64, 40);
+        let mut v = viewer(RenderMode::Points, 64, 40);
         assert!(v.frame(&InputState::default(), 0.02).unwrap().drew);
         assert!(!v.frame(&InputState::default(), 0.02).unwrap().drew);
         assert!(v.is_idle());
@@ -554,20 +564,20 @@ mod tests {
 
     #[test]
     fn moving_frames_drop_resolution_to_keep_the_frame_rate_and_rest_restores_it() {
-        let mut v = viewer(ViewMode::Path, 320, 200);
+        let mut v = viewer(RenderMode::Path, 320, 200);
         v.frame(&InputState::default(), 0.02).unwrap();
         // Pretend the path mode costs 1 ms a pixel: only the coarsest divisor fits 33 ms, and
         // it cannot fit; the coarsest is used.
-        v.ms_per_pixel[ViewMode::Path as usize] = 1.0;
+        v.ms_per_pixel[RenderMode::Path as usize] = 1.0;
         let o = v.frame(&turn(), 0.02).unwrap().clone();
         assert_eq!(o.render_size, (320 / 12, 200 / 12));
         // The frame is still the window's size, scaled up.
         assert_eq!(v.pixels().len(), 320 * 200);
         // Cheap enough for full size: full size.
-        v.ms_per_pixel[ViewMode::Path as usize] = 1e-7;
+        v.ms_per_pixel[RenderMode::Path as usize] = 1e-7;
         assert_eq!(v.frame(&turn(), 0.02).unwrap().render_size, (320, 200));
         // 4× too slow at full size: divisor 2 (a quarter of the pixels).
-        v.ms_per_pixel[ViewMode::Path as usize] = 4.0 * TARGET_FRAME_MS / (320.0 * 200.0);
+        v.ms_per_pixel[RenderMode::Path as usize] = 4.0 * TARGET_FRAME_MS / (320.0 * 200.0);
         assert_eq!(v.frame(&turn(), 0.02).unwrap().render_size, (160, 100));
         // At rest: the full size again, refining from there.
         let o = v.frame(&InputState::default(), 0.02).unwrap().clone();
@@ -583,11 +593,11 @@ mod tests {
 
     #[test]
     fn keys_switch_modes_filters_and_channels() {
-        let mut v = viewer(ViewMode::Whitted, 48, 32);
+        let mut v = viewer(RenderMode::Whitted, 48, 32);
         v.frame(&InputState::default(), 0.02).unwrap();
         let whitted = v.pixels().to_vec();
-        v.apply(Action::Mode(ViewMode::Path)).unwrap();
-        assert_eq!(v.settings.mode, ViewMode::Path);
+        v.apply(Action::Mode(RenderMode::Path)).unwrap();
+        assert_eq!(v.settings.mode, RenderMode::Path);
         assert!(v.frame(&InputState::default(), 0.02).unwrap().restarted);
         assert_ne!(v.pixels(), &whitted[..]);
         let filters: Vec<FilterKind> = (0..4)
@@ -599,11 +609,11 @@ mod tests {
         assert_eq!(filters, [FilterKind::Atrous, FilterKind::Bilateral, FilterKind::None, FilterKind::Guided]);
         v.apply(Action::MoreSamples).unwrap();
         v.apply(Action::MoreBounces).unwrap();
-        assert_eq!((v.settings.path.spp, v.settings.path.max_bounces), (2, 2));
+        assert_eq!((v.settings.modes.path.spp, v.settings.modes.path.max_bounces), (2, 2));
         v.apply(Action::FewerBounces).unwrap();
         v.apply(Action::FewerBounces).unwrap();
         v.apply(Action::FewerBounces).unwrap();
-        assert_eq!(v.settings.path.max_bounces, 0);
+        assert_eq!(v.settings.modes.path.max_bounces, 0);
         v.frame(&InputState::default(), 0.02).unwrap();
         // Every channel shows something different (the overlay is off to compare pictures).
         v.apply(Action::ToggleOverlay).unwrap();
@@ -621,21 +631,21 @@ mod tests {
             }
         }
         // Leaving the path mode leaves its channels.
-        v.apply(Action::Mode(ViewMode::Points)).unwrap();
+        v.apply(Action::Mode(RenderMode::Points)).unwrap();
         assert_eq!(v.display, Display::Beauty);
         // A mode with nothing to draw is refused with a message, not an error.
-        let mut s = crate::frame::tests::scene();
+        let mut s = glint_testkit::scenes::cloud_and_sphere();
         s.clouds.clear();
         let mut v = Viewer::new(s, "t", ViewerOptions { width: 32, height: 32, ..Default::default() }).unwrap();
-        assert!(v.apply(Action::Mode(ViewMode::Points)).unwrap());
-        assert_eq!(v.settings.mode, ViewMode::Whitted);
+        assert!(v.apply(Action::Mode(RenderMode::Points)).unwrap());
+        assert_eq!(v.settings.mode, RenderMode::Whitted);
         assert!(v.message.as_ref().is_some_and(|(m, _)| m.contains("no point clouds")));
         assert!(!v.apply(Action::Quit).unwrap());
     }
 
     #[test]
     fn the_statistics_name_the_stages_and_the_rate() {
-        let mut v = viewer(ViewMode::Path, 64, 40);
+        let mut v = viewer(RenderMode::Path, 64, 40);
         v.frame(&InputState::default(), 0.05).unwrap();
         v.frame(&InputState::default(), 0.05).unwrap();
         let text = v.stats_lines().join("\n");
@@ -644,7 +654,7 @@ mod tests {
         }
         // The overlay is drawn: white text pixels in the top-left corner.
         assert!(v.pixels()[..64 * 12].contains(&0x00ff_ffff));
-        let mut v = viewer(ViewMode::Points, 64, 40);
+        let mut v = viewer(RenderMode::Points, 64, 40);
         v.frame(&InputState::default(), 0.05).unwrap();
         let text = v.stats_lines().join("\n");
         for needle in ["points", "project", "pull-push", "shade", "Mpoints/s"] {
@@ -660,11 +670,11 @@ mod tests {
         let options = ViewerOptions {
             width: 40,
             height: 30,
-            mode: Some(ViewMode::Path),
+            mode: Some(RenderMode::Path),
             screenshot_dir: dir.clone(),
             ..Default::default()
         };
-        let mut v = Viewer::new(crate::frame::tests::scene(), "t", options).unwrap();
+        let mut v = Viewer::new(glint_testkit::scenes::cloud_and_sphere(), "t", options).unwrap();
         v.frame(&InputState::default(), 0.02).unwrap();
         let (png, exr) = v.screenshot().unwrap();
         assert!(png.ends_with("glint-view-001.png") && exr.ends_with("glint-view-001.exr"));
@@ -691,9 +701,9 @@ mod tests {
             degrees_per_second: 90.0,
             phase_deg: 0.0,
         };
-        let mut scene2 = crate::frame::tests::scene();
+        let mut scene2 = glint_testkit::scenes::cloud_and_sphere();
         scene2.animate(&[AnimationTarget::Object(0)], Motion { rotation: Some(rotation), translation: None }).unwrap();
-        let options = ViewerOptions { width: 48, height: 32, mode: Some(ViewMode::Path), ..Default::default() };
+        let options = ViewerOptions { width: 48, height: 32, mode: Some(RenderMode::Path), ..Default::default() };
         let mut v = Viewer::new(scene2, "t", options).unwrap();
         v.apply(Action::ToggleOverlay).unwrap();
         let rest = InputState::default();

@@ -5,9 +5,9 @@
 
 use crate::ViewError;
 use crate::camera::InputState;
-use crate::frame::ViewMode;
 use crate::viewer::{Action, Viewer};
 use glint_core::Vec2;
+use glint_scene::RenderMode;
 use std::num::NonZeroU32;
 use std::path::PathBuf;
 use std::rc::Rc;
@@ -114,9 +114,9 @@ struct App {
 /// The action of a key, if it has one.
 fn action_for(key: KeyCode) -> Option<Action> {
     Some(match key {
-        KeyCode::Digit1 | KeyCode::Numpad1 => Action::Mode(ViewMode::Whitted),
-        KeyCode::Digit2 | KeyCode::Numpad2 => Action::Mode(ViewMode::Path),
-        KeyCode::Digit3 | KeyCode::Numpad3 => Action::Mode(ViewMode::Points),
+        KeyCode::Digit1 | KeyCode::Numpad1 => Action::Mode(RenderMode::Whitted),
+        KeyCode::Digit2 | KeyCode::Numpad2 => Action::Mode(RenderMode::Path),
+        KeyCode::Digit3 | KeyCode::Numpad3 => Action::Mode(RenderMode::Points),
         KeyCode::KeyF => Action::CycleFilter,
         KeyCode::Equal | KeyCode::NumpadAdd => Action::MoreSamples,
         KeyCode::Minus | KeyCode::NumpadSubtract => Action::FewerSamples,
@@ -337,9 +337,9 @@ mod tests {
     #[test]
     fn keys_map_to_the_actions_the_help_lists() {
         let expected = [
-            (KeyCode::Digit1, Action::Mode(ViewMode::Whitted)),
-            (KeyCode::Digit2, Action::Mode(ViewMode::Path)),
-            (KeyCode::Digit3, Action::Mode(ViewMode::Points)),
+            (KeyCode::Digit1, Action::Mode(RenderMode::Whitted)),
+            (KeyCode::Digit2, Action::Mode(RenderMode::Path)),
+            (KeyCode::Digit3, Action::Mode(RenderMode::Points)),
             (KeyCode::KeyF, Action::CycleFilter),
             (KeyCode::Minus, Action::FewerSamples),
             (KeyCode::Equal, Action::MoreSamples),

@@ -7,7 +7,7 @@ use anyhow::{Context, Result, bail};
 use glint_core::random::SampleStream;
 use glint_core::sampling::sample_cosine_hemisphere;
 use glint_core::{Frame, Ray, Vec2, Vec3};
-use glint_render::{RenderSettings, Schedule, World};
+use glint_render::{Hooks, ImageSettings, Mode, Renderer, Schedule, WhittedSettings, World};
 use glint_scene::{Mesh, Scene};
 use rayon::prelude::*;
 use std::io::Write;
@@ -48,14 +48,14 @@ fn tile_order(width: u32, height: u32) -> impl Iterator<Item = (u32, u32)> {
 /// The ray set of a benchmark: generated once, primary rays in 4×2 pixel tiles (secondary rays
 /// follow their primary ray's order), deterministic in the seed. The dump keeps this order.
 fn make_rays(world: &World, kind: RayKind, width: u32, height: u32, seed: u64) -> Vec<Ray> {
-    let cam = world.scene.camera.rays(width, height);
+    let cam = world.scene().camera.rays(width, height);
     let primary: Vec<Ray> =
         tile_order(width, height).map(|(x, y)| cam.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5))).collect();
     if kind == RayKind::Primary {
         return primary;
     }
-    let light = world.scene.lights.iter().find_map(|l| l.position()).unwrap_or_else(|| {
-        let b = world.scene.bounds();
+    let light = world.scene().lights.iter().find_map(|l| l.position()).unwrap_or_else(|| {
+        let b = world.scene().bounds();
         b.centre() + Vec3::new(0.3, 1.0, 0.5) * b.diagonal_length().max(1.0) * 2.0
     });
     primary
@@ -265,26 +265,26 @@ fn whitted(a: &BenchWhittedArgs) -> Result<()> {
         None => None,
     };
     pool.install(|| -> Result<()> {
-        let mut settings = RenderSettings::from_defaults(&scene.render);
-        settings.width = a.width;
-        settings.height = a.height;
-        settings.schedule = match a.schedule {
+        let schedule = match a.schedule {
             ScheduleArg::Stealing => Schedule::WorkStealing,
             ScheduleArg::Static => Schedule::Static,
         };
-        let mut worlds = vec![World::new(scene)];
+        let image = ImageSettings { schedule, ..ImageSettings::new(a.width, a.height) };
+        let mode = Mode::Whitted(WhittedSettings::from_defaults(&scene.render));
+        let camera = scene.camera;
+        let mut renderers = vec![Renderer::new(scene)?];
         if let Some(s) = sky_scene {
-            worlds.push(World::new(s));
+            renderers.push(Renderer::new(s)?);
         }
-        for w in &worlds {
-            glint_render::render(w, &settings)?; // warm-up
+        for r in &mut renderers {
+            r.render(&camera, &image, &mode, &Hooks::default())?; // warm-up
         }
         // Frames of the variants interleaved, so that both see the same machine load.
-        let mut ms = vec![Vec::new(); worlds.len()];
-        let mut rays = vec![0; worlds.len()];
+        let mut ms = vec![Vec::new(); renderers.len()];
+        let mut rays = vec![0; renderers.len()];
         for _ in 0..a.frames {
-            for (i, w) in worlds.iter().enumerate() {
-                let (_, stats) = glint_render::render(w, &settings)?;
+            for (i, r) in renderers.iter_mut().enumerate() {
+                let stats = r.render(&camera, &image, &mode, &Hooks::default())?;
                 ms[i].push(stats.elapsed.as_secs_f64() * 1e3);
                 rays[i] = stats.rays.total();
             }
@@ -299,7 +299,7 @@ fn whitted(a: &BenchWhittedArgs) -> Result<()> {
                 a.width,
                 a.height,
                 rayon::current_num_threads(),
-                settings.schedule,
+                image.schedule,
                 med,
                 1e3 / med,
                 rays[i] as f64 / med / 1e3,

@@ -11,7 +11,8 @@ use crate::input;
 use anyhow::{Context, Result, bail};
 use glint_filter::{AtrousParams, BilateralParams, Filter, Guide, GuideChannels, GuidedParams};
 use glint_image::{Image, PngOptions};
-use glint_render::{Film, PathSettings, RenderSettings, World, render_path};
+use glint_render::path::PathSettings;
+use glint_render::{Film, FrameStats, Hooks, ImageSettings, Mode, Renderer};
 use glint_scene::Scene;
 use std::io::Write;
 use std::path::Path;
@@ -39,12 +40,13 @@ fn load_scene(name: &str, text: &str, data: &Path) -> Result<Scene> {
     Ok(loaded.scene)
 }
 
-fn settings(scene: &Scene, width: u32, height: u32, seed: u64) -> RenderSettings {
-    let mut s = RenderSettings::from_defaults(&scene.render);
-    s.width = width;
-    s.height = height;
-    s.seed = seed;
-    s
+/// A whole path-traced frame of `width × height` with `seed`, seen by the scene's camera (its
+/// delta chains as deep as the scene's `max_depth`); the picture is then `r.film()`.
+fn path_frame(r: &mut Renderer, (width, height): (u32, u32), seed: u64, p: PathSettings) -> Result<FrameStats> {
+    let image = ImageSettings { seed, ..ImageSettings::new(width, height) };
+    let camera = r.scene().camera;
+    let mode = Mode::Path(PathSettings { max_chain: r.scene().render.max_depth, ..p });
+    Ok(r.render(&camera, &image, &mode, &Hooks::default())?)
 }
 
 fn path_settings(spp: u32, bounces: u32, filter: Filter) -> PathSettings {
@@ -71,10 +73,9 @@ pub fn filters(a: &BenchFiltersArgs) -> Result<()> {
     let scene = load_scene(name, text, &a.data)?;
     pool.install(|| -> Result<()> {
         let (w, h) = (a.width, a.height);
-        let world = World::new(scene);
-        let (film, _) =
-            render_path(&world, &settings(&world.scene, w, h, 0), &path_settings(1, 1, Filter::None), &|_| {})?;
-        let buffers = GuideBuffers::from_film(&film);
+        let mut renderer = Renderer::new(scene)?;
+        path_frame(&mut renderer, (w, h), 0, path_settings(1, 1, Filter::None))?;
+        let buffers = GuideBuffers::from_film(renderer.film());
         let guide = buffers.guide();
         let input = [&buffers.indirect[0][..], &buffers.indirect[1][..], &buffers.indirect[2][..]];
         let base = GuidedParams::for_width(w as usize);
@@ -168,16 +169,15 @@ pub fn gi(a: &BenchGiArgs) -> Result<()> {
             out!("# Table 1: render times, {}x{}, guided filter, {} threads, median of {} frames", a.width, a.height, rayon::current_num_threads(), a.reps);
             out!("{:<16} {:>8} {:>5} {:>10} {:>10} {:>10} {:>9}", "scene", "bounces", "spp", "total ms", "trace ms", "filter ms", "Mrays/s");
             for &(name, text) in &scenes {
-                let world = World::new(load_scene(name, text, &a.data)?);
-                let s = settings(&world.scene, a.width, a.height, 0);
+                let mut renderer = Renderer::new(load_scene(name, text, &a.data)?)?;
                 for (bounces, spp) in [(1, 1), (1, 4), (2, 4)] {
                     let p = path_settings(spp, bounces, Filter::Guided(GuidedParams::for_width(a.width as usize)));
                     let (mut total, mut trace, mut filter, mut mrays) = (vec![], vec![], vec![], vec![]);
                     for _ in 0..a.reps.max(1) {
-                        let (_, st) = render_path(&world, &s, &p, &|_| {})?;
+                        let st = path_frame(&mut renderer, (a.width, a.height), 0, p)?;
                         total.push(st.elapsed.as_secs_f64() * 1e3);
-                        trace.push(st.trace.as_secs_f64() * 1e3);
-                        filter.push(st.filter.as_secs_f64() * 1e3);
+                        trace.push(st.stage("trace").unwrap_or_default().as_secs_f64() * 1e3);
+                        filter.push(st.stage("filter").unwrap_or_default().as_secs_f64() * 1e3);
                         mrays.push(st.mrays_per_second());
                     }
                     out!(
@@ -205,16 +205,16 @@ pub fn gi(a: &BenchGiArgs) -> Result<()> {
         out!("{:<16} {:>4} {:<11} {:>12} {:>12} {:>9} {:>10}", "scene", "spp", "filter", "MSE linear", "MSE sRGB8", "PSNR dB", "time ms");
         let mut sheet_rows: Vec<Vec<Image>> = Vec::new();
         for &(name, text) in &scenes {
-            let world = World::new(load_scene(name, text, &a.data)?);
-            let reference = reference_image(&world, name, w, h, a)?;
+            let mut renderer = Renderer::new(load_scene(name, text, &a.data)?)?;
+            let reference = reference_image(&mut renderer, name, w, h, a)?;
             let mut row = vec![reference.clone()];
             for spp in [1u32, 4] {
                 for (label, filter, filter_area_direct) in named_filters(w as usize) {
                     let t = Instant::now();
                     let p = PathSettings { filter_area_direct, ..path_settings(spp, a.bounces, filter) };
-                    let (film, _) = render_path(&world, &settings(&world.scene, w, h, 0), &p, &|_| {})?;
+                    path_frame(&mut renderer, (w, h), 0, p)?;
                     let ms = t.elapsed().as_secs_f64() * 1e3;
-                    let img = film.beauty_image(false);
+                    let img = renderer.film().beauty_image(false);
                     let report = glint_image::metrics::compare(&img, &reference)?;
                     out!(
                         "{:<16} {:>4} {:<11} {:>12.3e} {:>12.2} {:>9.2} {:>10.1}",
@@ -240,7 +240,7 @@ pub fn gi(a: &BenchGiArgs) -> Result<()> {
 
 /// The converged reference of a scene: plain path tracing at `ref_spp` with its own seed,
 /// cached as EXR in the output folder.
-fn reference_image(world: &World, name: &str, w: u32, h: u32, a: &BenchGiArgs) -> Result<Image> {
+fn reference_image(renderer: &mut Renderer, name: &str, w: u32, h: u32, a: &BenchGiArgs) -> Result<Image> {
     let file = a.out.join(format!("{name}-reference-{w}x{h}-{}spp-{}b.exr", a.ref_spp, a.bounces));
     if file.exists() {
         let img = glint_image::read_image(&file)
@@ -250,14 +250,9 @@ fn reference_image(world: &World, name: &str, w: u32, h: u32, a: &BenchGiArgs) -
         }
     }
     let t = Instant::now();
-    let (film, _) = render_path(
-        world,
-        &settings(&world.scene, w, h, 1),
-        &path_settings(a.ref_spp, a.bounces, Filter::None),
-        &|_| {},
-    )?;
+    path_frame(renderer, (w, h), 1, path_settings(a.ref_spp, a.bounces, Filter::None))?;
     eprintln!("glint: reference for {name} ({} spp) in {:.1} s", a.ref_spp, t.elapsed().as_secs_f64());
-    let img = film.beauty_image(false);
+    let img = renderer.film().beauty_image(false);
     glint_image::write_exr(&file, &img).with_context(|| format!("cannot write {}", file.display()))?;
     Ok(img)
 }

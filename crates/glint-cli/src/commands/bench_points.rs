@@ -10,7 +10,8 @@ use crate::cli::{BenchPointsArgs, PointArgs, clap_defaults};
 use crate::input;
 use anyhow::{Context, Result, bail};
 use glint_formats::points::PointReadOptions;
-use glint_render::{Fill, PointFrame, PointRenderer, PointSettings, PointStats};
+use glint_render::points::{Fill, PointSettings};
+use glint_render::{FrameStats, Hooks, ImageSettings, Mode, Renderer, WhittedSettings};
 use glint_scene::Scene;
 use std::io::Write;
 use std::path::Path;
@@ -73,7 +74,9 @@ pub fn run(args: &BenchPointsArgs) -> Result<()> {
         bail!("--clouds: unknown cloud {bad:?} (use {})", CLOUDS.join(", "));
     }
     for &side in &sizes {
-        PointSettings::new(side, side).validate().with_context(|| format!("--sizes: {side}"))?;
+        PointSettings::default()
+            .validate(&ImageSettings::new(side, side))
+            .with_context(|| format!("--sizes: {side}"))?;
     }
     if let Some(dir) = &args.images {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
@@ -86,39 +89,41 @@ pub fn run(args: &BenchPointsArgs) -> Result<()> {
         for name in &names {
             let mut scene = load_cloud(name, &args.data)?;
             super::points::prepare_clouds(&mut scene, &clap_defaults::<PointArgs>()?, true)?;
-            let mut renderer = PointRenderer::new(&scene)?;
-            for &side in &sizes {
+            let meshes = WhittedSettings::from_defaults(&scene.render);
+            let default_view = |side| glint_formats::default_camera(&scene, side, side);
+            let views: Vec<_> = sizes.iter().map(|&side| default_view(side)).collect();
+            let mut renderer = Renderer::new(scene)?;
+            for (&side, camera) in sizes.iter().zip(&views) {
                 for &fill in &fills {
-                    let settings = PointSettings { fill, ..PointSettings::new(side, side) };
-                    settings.validate()?;
                     // Square images: the default view refitted.
-                    let camera = glint_formats::default_camera(&scene, side, side);
-                    let mut frame = PointFrame::default();
-                    let first = renderer.render(&scene, &camera, &settings, &mut frame)?;
-                    let coverage = frame.coverage();
-                    if coverage < 0.01 || frame.colour.iter().any(|c| !c.is_finite()) {
+                    let image = ImageSettings::new(side, side);
+                    let mode = Mode::Points { points: PointSettings { fill, ..PointSettings::default() }, meshes };
+                    let first = renderer.render(camera, &image, &mode, &Hooks::default())?;
+                    let film = renderer.film();
+                    let coverage = film.pixels.iter().filter(|p| p.coverage > 0.0).count() as f64
+                        / film.pixels.len().max(1) as f64;
+                    if coverage < 0.01 || film.pixels.iter().any(|p| !p.colour.is_finite()) {
                         bail!("{name} at {side}²: the frame is empty or holds NaN: not timed");
                     }
                     if let Some(dir) = &args.images {
                         let path = dir.join(format!("{name}-{side}-{}.png", fill_name(fill)));
-                        let image = frame.to_film().beauty_image(false);
-                        glint_image::write_image(&path, &image, &glint_image::PngOptions::default())?;
+                        glint_image::write_image(&path, &film.beauty_image(false), &glint_image::PngOptions::default())?;
                     }
-                    let mut runs: Vec<PointStats> = vec![first];
+                    let mut runs: Vec<FrameStats> = vec![first];
                     for _ in 1..args.reps {
-                        runs.push(renderer.render(&scene, &camera, &settings, &mut frame)?);
+                        runs.push(renderer.render(camera, &image, &mode, &Hooks::default())?);
                     }
-                    let med = |f: fn(&PointStats) -> f64| median(&mut runs.iter().map(f).collect::<Vec<_>>());
-                    let total = med(|s| s.total_ms);
-                    let project = med(|s| s.project_ms);
-                    let points = renderer.points().len() as f64;
+                    let med = |f: &dyn Fn(&FrameStats) -> f64| median(&mut runs.iter().map(f).collect::<Vec<_>>());
+                    let stage = |name: &'static str| move |s: &FrameStats| s.stage(name).unwrap_or_default().as_secs_f64() * 1e3;
+                    let total = med(&|s| s.elapsed.as_secs_f64() * 1e3);
+                    let project = med(&stage("project"));
+                    let points = runs[0].points as f64;
                     out!(
-                        "| {name} | {} | {side}² | {} | {total:.2} | {:.1} | {project:.2} | {:.2} | {:.2} | {:.1} | {:.0} | {:.3} |",
-                        renderer.points().len(),
+                        "| {name} | {points} | {side}² | {} | {total:.2} | {:.1} | {project:.2} | {:.2} | {:.2} | {:.1} | {:.0} | {:.3} |",
                         fill_name(fill),
                         1e3 / total,
-                        med(|s| s.pull_push_ms),
-                        med(|s| s.shade_ms),
+                        med(&stage("pull-push")),
+                        med(&stage("shade")),
                         points / total * 1e-3,
                         points / project * 1e-3,
                         coverage

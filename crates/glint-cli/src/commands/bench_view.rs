@@ -7,13 +7,12 @@
 use super::bench::median;
 use super::points::prepare_clouds;
 use super::render::filter_from_args;
-use super::view::{filter_kind, view_mode};
-use crate::cli::{BenchViewArgs, FilterOptions, ModeArg, PointArgs, clap_defaults};
+use crate::cli::{BenchViewArgs, FilterOptions, PointArgs, clap_defaults};
 use crate::input;
 use anyhow::{Context, Result, bail};
 use glint_core::Vec2;
-use glint_render::PathSettings;
 use glint_scene::RenderMode;
+use glint_view::frame::{ms, rate};
 use glint_view::{ControlMode, InputState, ViewSettings, Viewer, ViewerOptions};
 use std::io::Write;
 
@@ -26,16 +25,13 @@ pub fn run(args: &BenchViewArgs) -> Result<()> {
     }
     let pool = input::thread_pool(args.threads)?;
     let mut scene = input::load(args.input.as_deref(), true)?;
-    let mode = view_mode(args.mode.unwrap_or(match scene.render.mode {
-        RenderMode::Whitted => ModeArg::Whitted,
-        RenderMode::Path => ModeArg::Path,
-        RenderMode::Points => ModeArg::Points,
-    }));
-    let mut settings = ViewSettings::new(args.width, args.height, mode);
-    settings.path = PathSettings { spp: args.spp, max_bounces: args.max_bounces, ..PathSettings::default() };
-    settings.path.validate().context("path mode")?;
+    let mode = args.mode.map_or(scene.render.mode, RenderMode::from);
+    let mut settings = ViewSettings::new(args.width, args.height, mode, &scene.render);
+    settings.modes.path.spp = args.spp;
+    settings.modes.path.max_bounces = args.max_bounces;
+    settings.modes.path.validate().context("path mode")?;
     filter_from_args(args.filter, &clap_defaults::<FilterOptions>()?, args.width)?;
-    settings.filter = filter_kind(args.filter);
+    settings.filter = args.filter.into();
     pool.install(|| -> Result<()> {
         let point_args = clap_defaults::<PointArgs>()?;
         prepare_clouds(&mut scene, &point_args, true)?;
@@ -64,16 +60,18 @@ pub fn run(args: &BenchViewArgs) -> Result<()> {
             let stats = outcome.stats;
             let (rw, rh) = outcome.render_size;
             // Everything after the render: channel, upscale, statistics text.
-            let display = (total - stats.total_ms).max(0.0);
+            let display = (total - ms(stats.elapsed)).max(0.0);
             if args.per_frame {
-                let split: Vec<String> = stats.stages.iter().map(|(n, ms)| format!("{n} {ms:.2}")).collect();
+                let split: Vec<String> = stats.stages.iter().map(|(n, d)| format!("{n} {:.2}", ms(*d))).collect();
                 out!("frame {frame}: {total:.2} ms at {rw}x{rh} ({}, display {display:.2})", split.join(", "));
             }
             totals.push(total);
-            rates.push(stats.mrate);
+            let (rate, rate_unit) = rate(&stats);
+            rates.push(rate);
             pixels_drawn.push((rw * rh) as f64);
-            unit = stats.rate_unit;
-            for (name, ms) in stats.stages.into_iter().chain([("display", display)]) {
+            unit = rate_unit;
+            let stages_ms = stats.stages.iter().map(|(n, d)| (*n, ms(*d)));
+            for (name, ms) in stages_ms.chain([("display", display)]) {
                 match stages.iter_mut().find(|(n, _)| *n == name) {
                     Some((_, v)) => v.push(ms),
                     None => stages.push((name, vec![ms])),

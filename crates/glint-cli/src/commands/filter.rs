@@ -46,7 +46,7 @@ pub fn run(args: &FilterArgs) -> Result<()> {
             args.input.display(),
             image.width,
             image.height,
-            super::render::filter_name(&filter),
+            filter,
             args.output.display()
         );
     }

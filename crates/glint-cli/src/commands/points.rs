@@ -2,10 +2,11 @@
 //! normal and radius estimation for clouds without them (with a progress bar), and the points
 //! mode's settings.
 
-use crate::cli::{FillArg, PointArgs, PointsCommand, SampleArgs, ShadingArg};
+use crate::cli::{PointArgs, PointsCommand, SampleArgs};
 use crate::progress::LazyProgress;
 use anyhow::{Context, Result, bail};
-use glint_render::{Fill, PointSettings, PointShading};
+use glint_render::ImageSettings;
+use glint_render::points::PointSettings;
 use glint_scene::{EstimateSettings, Mesh, Scene};
 use std::sync::Arc;
 use std::time::Instant;
@@ -81,33 +82,22 @@ fn estimate_settings(args: &PointArgs) -> Result<EstimateSettings> {
 /// called before any cloud is read, so a typo does not wait for a large file.
 pub fn check_point_args(args: &PointArgs) -> Result<()> {
     estimate_settings(args)?;
-    point_settings(args, 1, 1).map(|_| ())
+    point_settings(args, &ImageSettings::new(1, 1)).map(|_| ())
 }
 
-/// The points mode's settings from the command line.
-pub fn point_settings(args: &PointArgs, width: u32, height: u32) -> Result<PointSettings> {
+/// The points mode's settings from the command line, checked for `image`.
+pub fn point_settings(args: &PointArgs, image: &ImageSettings) -> Result<PointSettings> {
     let settings = PointSettings {
-        fill: match args.fill {
-            FillArg::Ellipses => Fill::Ellipses,
-            FillArg::PullPush => Fill::PullPush,
-            FillArg::Raw => Fill::Raw,
-            FillArg::Squares => Fill::Squares,
-        },
-        shading: match args.shading {
-            ShadingArg::Auto => PointShading::Auto,
-            ShadingArg::Phong => PointShading::Phong,
-            ShadingArg::Edl => PointShading::EyeDome,
-            ShadingArg::Flat => PointShading::Flat,
-        },
+        fill: args.fill.into(),
+        shading: args.shading.into(),
         square_side: args.square_size,
         edl_strength: args.edl_strength,
         cull: !args.two_sided,
-        ..PointSettings::new(width, height)
     };
-    settings.validate().with_context(|| {
+    settings.validate(image).with_context(|| {
         format!(
-            "points mode ({width}x{height}, --square-size {}, --edl-strength {})",
-            args.square_size, args.edl_strength
+            "points mode ({}x{}, --square-size {}, --edl-strength {})",
+            image.width, image.height, args.square_size, args.edl_strength
         )
     })?;
     Ok(settings)

@@ -1,15 +1,16 @@
 //! `glint render`: load, apply command-line overrides, render, write atomically.
 
 use super::points;
-use crate::cli::{FilterArg, FilterOptions, FlipArg, GuideArg, ModeArg, RenderArgs, SkyArgs};
+use crate::cli::{FilterArg, FilterOptions, FlipArg, GuideArg, RenderArgs, SkyArgs};
 use crate::input::{self, parse_vec3};
 use crate::progress::LazyProgress;
 use anyhow::{Context, Result, bail};
-use glint_filter::{AtrousParams, BilateralParams, Filter, GuideChannels, GuidedParams};
+use glint_filter::{AtrousParams, BilateralParams, Filter, FilterKind, GuideChannels, GuidedParams};
 use glint_formats::points::ColourBy;
 use glint_formats::sky::{FaceTransform, SkyLoadOptions, SkySource, load_sky};
-use glint_image::{PngOptions, ToneMap};
-use glint_render::{Film, PathSettings, PointFrame, PointRenderer, RenderSettings, World, render_path};
+use glint_image::PngOptions;
+use glint_render::path::PathSettings;
+use glint_render::{Film, Hooks, ImageSettings, Mode, ModeSettings, Renderer};
 use glint_scene::{Camera, Fov, RenderMode, Scene, Sky, SkyTransform};
 use std::path::Path;
 use std::time::Duration;
@@ -46,7 +47,7 @@ pub fn apply_overrides(scene: &mut Scene, args: &RenderArgs) -> Result<()> {
         scene.render.height = h;
     }
     if let Some(spp) = args.spp
-        && mode(args, scene) == ModeArg::Whitted
+        && mode(args, scene) == RenderMode::Whitted
     {
         let n = (spp as f64).sqrt().round() as u32;
         if spp == 0 || n * n != spp {
@@ -148,17 +149,12 @@ fn apply_sky(scene: &mut Scene, args: &SkyArgs, input: Option<&Path>) -> Result<
 }
 
 /// The mode to render in: the command line's, else the scene's.
-pub fn mode(args: &RenderArgs, scene: &Scene) -> ModeArg {
-    args.mode.unwrap_or(match scene.render.mode {
-        RenderMode::Whitted => ModeArg::Whitted,
-        RenderMode::Path => ModeArg::Path,
-        RenderMode::Points => ModeArg::Points,
-    })
+pub fn mode(args: &RenderArgs, scene: &Scene) -> RenderMode {
+    args.mode.map_or(scene.render.mode, RenderMode::from)
 }
 
 /// The filter the options describe, its defaults scaled to an image `width` pixels wide.
 pub fn filter_from_args(kind: FilterArg, o: &FilterOptions, width: u32) -> Result<Filter> {
-    let w = width as usize;
     let check_eps = |name: &str, v: Option<f32>| -> Result<()> {
         if let Some(e) = v
             && !(e.is_finite() && e > 0.0)
@@ -179,35 +175,28 @@ pub fn filter_from_args(kind: FilterArg, o: &FilterOptions, width: u32) -> Resul
     {
         bail!("--iterations {i}: must be 1..=10");
     }
-    Ok(match kind {
-        FilterArg::None => Filter::None,
-        FilterArg::Guided => {
-            let d = GuidedParams::for_width(w);
-            Filter::Guided(GuidedParams {
-                radius: o.radius.unwrap_or(d.radius),
-                eps_normal: o.eps_normal.unwrap_or(d.eps_normal),
-                eps_depth: o.eps_depth.unwrap_or(d.eps_depth),
-                channels: match o.guide {
-                    GuideArg::Grey => GuideChannels::Grey,
-                    GuideArg::Normal => GuideChannels::Normal,
-                    GuideArg::NormalDepth => GuideChannels::NormalDepth,
-                },
-            })
-        }
-        FilterArg::Bilateral => {
-            let d = BilateralParams::for_width(w);
+    Ok(match Filter::for_width(FilterKind::from(kind), width as usize) {
+        Filter::None => Filter::None,
+        Filter::Guided(d) => Filter::Guided(GuidedParams {
+            radius: o.radius.unwrap_or(d.radius),
+            eps_normal: o.eps_normal.unwrap_or(d.eps_normal),
+            eps_depth: o.eps_depth.unwrap_or(d.eps_depth),
+            channels: match o.guide {
+                GuideArg::Grey => GuideChannels::Grey,
+                GuideArg::Normal => GuideChannels::Normal,
+                GuideArg::NormalDepth => GuideChannels::NormalDepth,
+            },
+        }),
+        Filter::Bilateral(d) => {
             let radius = o.radius.unwrap_or(d.radius);
             Filter::Bilateral(BilateralParams { radius, sigma_spatial: radius as f32 * 0.5, ..d })
         }
-        FilterArg::Atrous => {
-            let d = AtrousParams::default();
-            Filter::Atrous(AtrousParams { iterations: o.iterations.unwrap_or(d.iterations), ..d })
-        }
+        Filter::Atrous(d) => Filter::Atrous(AtrousParams { iterations: o.iterations.unwrap_or(d.iterations), ..d }),
     })
 }
 
-/// Path-mode settings from the command line and the scene's defaults.
-fn path_settings(args: &RenderArgs, scene: &Scene, width: u32) -> Result<PathSettings> {
+/// Path-mode settings from the command line over the scene's (`path`).
+fn path_settings(args: &RenderArgs, path: PathSettings, width: u32) -> Result<PathSettings> {
     let p = &args.path;
     let time_budget = match p.time {
         Some(t) if t.is_finite() && t > 0.0 && t < 1e6 => Some(Duration::from_secs_f64(t)),
@@ -216,21 +205,26 @@ fn path_settings(args: &RenderArgs, scene: &Scene, width: u32) -> Result<PathSet
     };
     Ok(PathSettings {
         spp: args.spp.unwrap_or(1),
-        max_bounces: p.max_bounces.unwrap_or(scene.render.max_bounces),
+        max_bounces: p.max_bounces.unwrap_or(path.max_bounces),
         filter: filter_from_args(p.filter, &p.filter_options, width)?,
         time_budget,
         clamp_indirect: p.clamp,
         filter_area_direct: p.filter_area_lights,
-        ..PathSettings::default()
+        ..path
     })
+}
+
+/// The image and the mode the options describe, over the scene's own settings.
+fn frame_settings(args: &RenderArgs, scene: &Scene) -> Result<(ImageSettings, Mode)> {
+    let image = ImageSettings { seed: args.seed, ..ImageSettings::new(scene.render.width, scene.render.height) };
+    let mut modes = ModeSettings::from_defaults(&scene.render);
+    modes.path = path_settings(args, modes.path, image.width)?;
+    modes.points = points::point_settings(&args.points, &image)?;
+    Ok((image, modes.mode(mode(args, scene))))
 }
 
 pub fn run(args: &RenderArgs) -> Result<()> {
     let kind = output_kind(&args.output)?;
-    let _: ToneMap = args
-        .tonemap
-        .parse()
-        .map_err(|_| anyhow::anyhow!("--tonemap {:?}: use clamp, reinhard or aces", args.tonemap))?;
     if !args.exposure.is_finite() {
         bail!("--exposure must be a finite number");
     }
@@ -246,151 +240,44 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         );
     }
     apply_overrides(&mut scene, args)?;
-    let mut settings = RenderSettings::from_defaults(&scene.render);
-    settings.seed = args.seed;
-
-    let mode = mode(args, &scene);
-    if mode == ModeArg::Points {
-        return run_points(args, kind, scene, &settings, &pool);
+    let (image, frame_mode) = frame_settings(args, &scene)?;
+    let points_mode = frame_mode.kind() == RenderMode::Points;
+    if points_mode && scene.clouds.is_empty() {
+        bail!("--mode points draws point clouds, and this scene has none (use --mode whitted or path)");
     }
-    if scene.objects.is_empty() {
+    if !points_mode && scene.objects.is_empty() {
         bail!("the scene holds only point clouds, which --mode points draws (the ray tracers do not see them)");
     }
-    if !scene.clouds.is_empty() && !args.quiet {
+    if !points_mode && !scene.clouds.is_empty() && !args.quiet {
         eprintln!(
             "glint: warning: {} point cloud(s) left out: only --mode points draws point clouds",
             scene.clouds.len()
         );
     }
-    let path = match mode {
-        ModeArg::Path => Some(path_settings(args, &scene, settings.width)?),
-        _ => None,
-    };
-
-    let (film, summary) = pool.install(|| -> Result<_> {
-        let world = World::new(scene);
-        let progress = LazyProgress::new(settings.height as u64, !args.quiet);
+    let camera = scene.camera;
+    pool.install(|| -> Result<()> {
+        if points_mode {
+            points::prepare_clouds(&mut scene, &args.points, args.quiet)?;
+        }
+        let mut renderer = Renderer::new(scene)?;
+        let progress = LazyProgress::new(u64::from(image.height), !args.quiet && !points_mode);
         let advance = |rows| progress.advance(rows);
-        let built = format!("build {:.1} ms, {} triangles", world.stats.build_ms, world.stats.triangles);
-        let result = match &path {
-            None => {
-                let (film, stats) = glint_render::render_with_progress(&world, &settings, &advance)?;
-                let n = settings.samples_per_side;
-                let summary = format!(
-                    "whitted {}x{} at {} spp in {:.3} s ({:.1} Mrays/s, {built}), {} NaN/inf samples dropped",
-                    settings.width,
-                    settings.height,
-                    n * n,
-                    stats.elapsed.as_secs_f64(),
-                    stats.mrays_per_second(),
-                    stats.rejected_samples,
-                );
-                (film, summary)
-            }
-            Some(p) => {
-                let (film, stats) = render_path(&world, &settings, p, &advance)?;
-                let summary = format!(
-                    "path {}x{} at {} spp ({} pass{}, {} bounces, filter {}) in {:.3} s (trace {:.3} s at {:.1} Mrays/s, filter {:.1} ms, {built}), {} NaN/inf samples dropped",
-                    settings.width,
-                    settings.height,
-                    stats.samples_per_pixel,
-                    stats.passes,
-                    if stats.passes == 1 { "" } else { "es" },
-                    p.max_bounces,
-                    filter_name(&p.filter),
-                    stats.elapsed.as_secs_f64(),
-                    stats.trace.as_secs_f64(),
-                    stats.mrays_per_second(),
-                    stats.filter.as_secs_f64() * 1e3,
-                    stats.rejected_samples,
-                );
-                (film, summary)
-            }
-        };
+        let stats = renderer.render(&camera, &image, &frame_mode, &Hooks::with_progress(&advance))?;
         progress.finish();
-        Ok(result)
-    })?;
-
-    write_output(args, kind, &film, &summary)
+        write_output(args, kind, renderer.film(), &stats.summary)
+    })
 }
 
 fn write_output(args: &RenderArgs, kind: OutputKind, film: &Film, summary: &str) -> Result<()> {
-    let tone_map: ToneMap = args
-        .tonemap
-        .parse()
-        .map_err(|_| anyhow::anyhow!("--tonemap {:?}: use clamp, reinhard or aces", args.tonemap))?;
     let image = match kind {
         OutputKind::Png => film.beauty_image(args.alpha),
         OutputKind::Exr => film.aov_image(),
     };
-    let options = PngOptions { exposure: args.exposure, tone_map, alpha: args.alpha };
+    let options = PngOptions { exposure: args.exposure, tone_map: args.tonemap.into(), alpha: args.alpha };
     glint_image::write_image(&args.output, &image, &options)
         .with_context(|| format!("cannot write {}", args.output.display()))?;
     if !args.quiet {
         eprintln!("glint: {summary} -> {}", args.output.display());
     }
     Ok(())
-}
-
-/// Points mode: prepare the clouds (estimate what they lack), reconstruct and shade them; the
-/// scene's meshes, spheres and planes, if any, are traced Whitted-style and the nearer surface
-/// wins each pixel.
-fn run_points(
-    args: &RenderArgs,
-    kind: OutputKind,
-    mut scene: Scene,
-    settings: &RenderSettings,
-    pool: &rayon::ThreadPool,
-) -> Result<()> {
-    if scene.clouds.is_empty() {
-        bail!("--mode points draws point clouds, and this scene has none (use --mode whitted or path)");
-    }
-    let point_settings = points::point_settings(&args.points, settings.width, settings.height)?;
-    let (film, summary) = pool.install(|| -> Result<_> {
-        points::prepare_clouds(&mut scene, &args.points, args.quiet)?;
-        let start = std::time::Instant::now();
-        let mut renderer = PointRenderer::new(&scene)?;
-        let prepared_ms = start.elapsed().as_secs_f64() * 1e3;
-        let mut frame = PointFrame::default();
-        let stats = renderer.render(&scene, &scene.camera, &point_settings, &mut frame)?;
-        let mut film = frame.to_film();
-        let mut traced = String::new();
-        if !scene.objects.is_empty() {
-            let world = World::new(scene.clone());
-            let (meshes, s) = glint_render::render(&world, settings)?;
-            film.composite_nearer(&meshes);
-            traced = format!(", meshes traced in {:.1} ms", s.elapsed.as_secs_f64() * 1e3);
-        }
-        let summary = format!(
-            "points {}x{} ({} points, fill {:?}) in {:.1} ms: project {:.1} ms, pull-push {:.1} ms, shade {:.1} ms ({:.0} M points/s; layout {:.0} ms{traced})",
-            settings.width,
-            settings.height,
-            stats.points,
-            point_settings.fill,
-            stats.total_ms,
-            stats.project_ms,
-            stats.pull_push_ms,
-            stats.shade_ms,
-            stats.points_per_second() * 1e-6,
-            prepared_ms,
-        );
-        Ok((film, summary))
-    })?;
-    write_output(args, kind, &film, &summary)
-}
-
-pub fn filter_name(f: &Filter) -> String {
-    match f {
-        Filter::None => "none".into(),
-        Filter::Guided(p) => {
-            let dims = match p.channels {
-                GuideChannels::Grey => "1-D",
-                GuideChannels::Normal => "3-D",
-                GuideChannels::NormalDepth => "4-D",
-            };
-            format!("guided {dims} r={}", p.radius)
-        }
-        Filter::Bilateral(p) => format!("bilateral r={}", p.radius),
-        Filter::Atrous(p) => format!("A-Trous {} iterations", p.iterations),
-    }
 }

@@ -2,37 +2,19 @@
 
 use super::points::{point_settings, prepare_clouds};
 use super::render::filter_from_args;
-use crate::cli::{CameraControlArg, FilterArg, FilterOptions, ModeArg, ViewArgs, clap_defaults};
+use crate::cli::{CameraControlArg, FilterOptions, ViewArgs, clap_defaults};
 use crate::input;
 use anyhow::{Context, Result, bail};
-use glint_render::PathSettings;
+use glint_render::ImageSettings;
+use glint_scene::limits;
 use glint_view::window::{self, WindowOptions};
-use glint_view::{ControlMode, FilterKind, ViewMode, ViewSettings, Viewer, ViewerOptions};
-
-pub fn view_mode(mode: ModeArg) -> ViewMode {
-    match mode {
-        ModeArg::Whitted => ViewMode::Whitted,
-        ModeArg::Path => ViewMode::Path,
-        ModeArg::Points => ViewMode::Points,
-    }
-}
-
-pub fn filter_kind(f: FilterArg) -> FilterKind {
-    match f {
-        FilterArg::Guided => FilterKind::Guided,
-        FilterArg::Atrous => FilterKind::Atrous,
-        FilterArg::Bilateral => FilterKind::Bilateral,
-        FilterArg::None => FilterKind::None,
-    }
-}
+use glint_view::{ControlMode, ViewSettings, Viewer, ViewerOptions};
 
 pub fn run(args: &ViewArgs) -> Result<()> {
     if !glint_scene::scene::image_size_ok(args.width, args.height) {
         bail!("--width/--height {}x{}: not a window size glint renders", args.width, args.height);
     }
-    if args.max_depth == 0 || args.max_depth > 64 {
-        bail!("--max-depth {}: must be 1..=64", args.max_depth);
-    }
+    limits::check("--max-depth", args.max_depth, &limits::MAX_DEPTH).map_err(anyhow::Error::msg)?;
     if args.max_samples == 0 {
         bail!("--max-samples 0: must be at least 1");
     }
@@ -51,19 +33,15 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     // The window's event loop must run on the main thread: the workers are the global pool.
     input::global_thread_pool(args.threads)?;
     let mut scene = input::load_with(args.input.as_deref(), args.points.colour_by, false)?;
-    let mut settings = ViewSettings::new(args.width, args.height, ViewMode::Whitted);
-    settings.path = PathSettings {
-        spp: args.spp,
-        max_bounces: args.max_bounces,
-        filter_area_direct: args.filter_area_lights,
-        ..PathSettings::default()
-    };
-    settings.path.validate().context("path mode")?;
+    let mut settings = ViewSettings::new(args.width, args.height, scene.render.mode, &scene.render);
+    let m = &mut settings.modes;
+    (m.path.spp, m.path.max_bounces, m.path.filter_area_direct) = (args.spp, args.max_bounces, args.filter_area_lights);
+    (m.whitted.max_depth, m.path.max_chain) = (args.max_depth, args.max_depth);
+    m.path.validate().context("path mode")?;
     // Checks the filter's options as `glint render` does.
     filter_from_args(args.filter, &clap_defaults::<FilterOptions>()?, args.width)?;
-    settings.filter = filter_kind(args.filter);
-    settings.max_depth = args.max_depth;
-    settings.points = point_settings(&args.points, args.width, args.height)?;
+    settings.filter = args.filter.into();
+    settings.modes.points = point_settings(&args.points, &ImageSettings::new(args.width, args.height))?;
     settings.seed = args.seed;
     let title = match &args.input {
         Some(p) => p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned()),
@@ -74,7 +52,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
         let options = ViewerOptions {
             width: args.width,
             height: args.height,
-            mode: args.mode.map(view_mode),
+            mode: args.mode.map(Into::into),
             control: match args.camera {
                 CameraControlArg::Orbit => ControlMode::Orbit,
                 CameraControlArg::Fly => ControlMode::Fly,

@@ -12,32 +12,16 @@ pub fn glint(args: &[&str], dir: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_glint")).args(args).current_dir(dir).output().expect("the binary runs")
 }
 
+#[allow(unused_imports)] // each test file uses its own subset
+pub use glint_testkit::{repo, shared};
+
 /// A fresh, empty scratch folder under the target directory.
 pub fn scratch(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("cli-{name}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("create scratch folder");
-    d
+    glint_testkit::scratch(&format!("cli-{name}"))
 }
 
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// The repository root.
-pub fn repo() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-}
-
-/// `../shared/REL` beside the repository, or None (with a note) when it is not there.
-pub fn shared(rel: &str) -> Option<PathBuf> {
-    let p = repo().join("../shared").join(rel);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("skipped: {} is not there", p.display());
-        None
-    }
 }
 
 /// Runs `args` in `dir` and asserts a clean failure: non-zero exit, a message containing

@@ -18,7 +18,7 @@
 
 use super::bsdf::Bsdf;
 use super::lights::{LightSet, power_heuristic};
-use crate::whitted::RayCounts;
+use crate::stats::RayCounts;
 use crate::world::{SurfaceHit, World};
 use glint_core::random::SampleStream;
 use glint_core::{Ray, Rgb, Vec3};

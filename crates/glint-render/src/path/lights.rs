@@ -68,7 +68,7 @@ impl LightSet {
         let r2 = radius * radius;
         let mut entries = Vec::new();
         let mut weights = Vec::new();
-        let delta_lights = world.scene.lights.clone();
+        let delta_lights = world.scene().lights.clone();
         let each_delta = delta_lights.len() <= EACH_DELTA_LIMIT;
         for (i, l) in delta_lights.iter().enumerate().filter(|_| !each_delta) {
             let (colour, intensity, atten) = match *l {

@@ -23,15 +23,16 @@ pub mod lights;
 pub mod lookup;
 pub mod progressive;
 
-use crate::driver::BandStats;
+use crate::bands::{self, Hooks};
 use crate::film::{Film, FilmPixel};
-use crate::settings::RenderSettings;
-use crate::whitted::RayCounts;
+use crate::settings::ImageSettings;
+use crate::stats::{BandStats, FrameStats};
 use crate::world::SurfaceHit;
 use crate::{RenderError, World};
 use glint_core::random::SampleStream;
 use glint_core::{Ray, Rgb, Vec2, Vec3};
-pub use glint_filter::Filter;
+use glint_filter::Filter;
+use glint_scene::{Camera, limits};
 use integrator::{CameraSample, IndirectMode, Integrator, PathParams};
 use lights::LightSet;
 use lookup::GuideMap;
@@ -50,6 +51,9 @@ pub struct PathSettings {
     pub max_bounces: u32,
     /// Russian roulette from this bounce on.
     pub rr_start: u32,
+    /// The longest chain of delta (mirror, glass) bounces the camera ray follows to its guide
+    /// vertex (the scene's `max_depth`).
+    pub max_chain: u32,
     pub filter: Filter,
     /// Render passes until this much time has been spent (at least one pass).
     pub time_budget: Option<Duration>,
@@ -68,6 +72,7 @@ impl Default for PathSettings {
             spp: 1,
             max_bounces: 3,
             rr_start: 3,
+            max_chain: 8,
             filter: Filter::None,
             time_budget: None,
             clamp_indirect: None,
@@ -76,21 +81,15 @@ impl Default for PathSettings {
     }
 }
 
-/// Upper bounds accepted for the path settings.
-pub const MAX_SPP: u32 = 1 << 16;
-pub const MAX_BOUNCES: u32 = 64;
-
 impl PathSettings {
+    /// # Errors
+    /// [`RenderError::InvalidSetting`] naming the value outside its range
+    /// (`glint_scene::limits`).
     pub fn validate(&self) -> Result<(), RenderError> {
-        if self.spp == 0 || self.spp > MAX_SPP {
-            return Err(RenderError::InvalidSetting(format!("{} samples per pixel (must be 1..={MAX_SPP})", self.spp)));
-        }
-        if self.max_bounces > MAX_BOUNCES {
-            return Err(RenderError::InvalidSetting(format!(
-                "{} bounces (must be at most {MAX_BOUNCES})",
-                self.max_bounces
-            )));
-        }
+        limits::check("samples per pixel", self.spp, &limits::SPP)
+            .and_then(|()| limits::check("bounces", self.max_bounces, &limits::MAX_BOUNCES))
+            .and_then(|()| limits::check("max depth", self.max_chain, &limits::MAX_DEPTH))
+            .map_err(RenderError::InvalidSetting)?;
         if let Some(c) = self.clamp_indirect
             && !(c.is_finite() && c > 0.0)
         {
@@ -106,26 +105,6 @@ impl PathSettings {
 
     fn filtered(&self) -> bool {
         !matches!(self.filter, Filter::None)
-    }
-}
-
-#[derive(Clone, Copy, Debug, Default)]
-pub struct PathStats {
-    pub rays: RayCounts,
-    /// Samples whose result was NaN or infinite (dropped, counted as black).
-    pub rejected_samples: u64,
-    pub passes: u32,
-    /// Samples per pixel over all passes.
-    pub samples_per_pixel: u32,
-    /// Time in tracing (guide rays and further samples) and in the filter.
-    pub trace: Duration,
-    pub filter: Duration,
-    pub elapsed: Duration,
-}
-
-impl PathStats {
-    pub fn mrays_per_second(&self) -> f64 {
-        self.rays.total() as f64 / self.trace.as_secs_f64().max(1e-9) / 1e6
     }
 }
 
@@ -151,7 +130,8 @@ struct Frame {
     lights: LightSet,
     camera: glint_scene::camera::CameraRays,
     params: PathParams,
-    settings: RenderSettings,
+    seed: u64,
+    schedule: crate::bands::Schedule,
     centre_cone: f32,
     forward: Vec3,
     width: usize,
@@ -160,22 +140,23 @@ struct Frame {
 impl Frame {
     /// The shared state of a pass over the world's scene seen by its camera. The diffuse
     /// direct light of area lights and the sky joins the filtered part only when a filter runs.
-    fn new(world: &World, settings: &RenderSettings, path: &PathSettings) -> Frame {
-        let camera = world.scene.camera.rays(settings.width, settings.height);
+    fn new(world: &World, view: &Camera, image: &ImageSettings, path: &PathSettings) -> Frame {
+        let camera = view.rays(image.width, image.height);
         Frame {
             lights: LightSet::new(world),
             camera,
             params: PathParams {
                 max_bounces: path.max_bounces,
-                max_chain: settings.max_depth,
+                max_chain: path.max_chain,
                 rr_start: path.rr_start,
                 clamp_indirect: path.clamp_indirect.unwrap_or(f32::INFINITY),
                 filter_area_direct: path.filter_area_direct && path.filtered(),
             },
-            settings: *settings,
+            seed: image.seed,
+            schedule: image.schedule,
             centre_cone: 1.0 / (camera.focal_pixels * (path.spp as f32).sqrt()),
-            forward: world.scene.camera.forward.normalize(),
-            width: settings.width as usize,
+            forward: view.forward.normalize(),
+            width: image.width as usize,
         }
     }
 
@@ -200,7 +181,7 @@ impl Frame {
     #[inline]
     fn camera_ray(&self, x: usize, y: usize, sample: u64, centre: bool) -> (Vec2, Ray, SampleStream) {
         let pixel = (y * self.width + x) as u64;
-        let mut stream = SampleStream::new(pixel, sample, self.settings.seed);
+        let mut stream = SampleStream::new(pixel, sample, self.seed);
         let offset = if centre { Vec2::splat(0.5) } else { stream.next_2d() };
         let pos = Vec2::new(x as f32, y as f32) + offset;
         (pos, self.camera.ray(pos), stream)
@@ -222,136 +203,46 @@ impl Frame {
     }
 }
 
-/// Render the world's scene with the path tracer.
+/// Render a path-traced frame of the world seen by `camera` into `film` (resized): passes of
+/// `path.spp` samples per pixel, repeated while the time budget lasts, averaged.
+///
+/// # Errors
+/// [`RenderError::InvalidSetting`] for settings outside their limits; [`RenderError::Filter`]
+/// if the filter refuses its input; [`RenderError::Cancelled`] when `hooks` cancel it.
 pub fn render_path(
     world: &World,
-    settings: &RenderSettings,
+    camera: &Camera,
+    image: &ImageSettings,
     path: &PathSettings,
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<(Film, PathStats), RenderError> {
-    settings.validate()?;
+    hooks: &Hooks,
+    film: &mut Film,
+) -> Result<FrameStats, RenderError> {
+    image.validate()?;
     path.validate()?;
     let start = Instant::now();
-    let (w, h) = (settings.width as usize, settings.height as usize);
-    let frame = Frame::new(world, settings, path);
-    let bounds = world.bounds();
-    let depth_scale = if bounds.is_empty() { 1.0 } else { 1.0 / bounds.diagonal_length().max(1e-6) };
-
-    let mut acc = vec![Accum::default(); w * h];
+    let frame = Frame::new(world, camera, image, path);
+    let mut acc = vec![Accum::default(); image.pixels()];
     let mut aovs: Vec<GuidePixel> = Vec::new();
-    let mut stats = PathStats::default();
-    let band_len = w * BAND_ROWS;
+    let mut stats = FrameStats::default();
+    let (mut trace, mut filter) = (Duration::ZERO, Duration::ZERO);
+    // Progress is reported over the first pass, by the loop that finishes its pixels.
+    let quiet = Hooks { progress: None, ..*hooks };
     let mut pass = 0u32;
     loop {
         let pass_start = Instant::now();
         let base = pass as u64 * path.spp as u64;
-        // 1. Guide rays (and, unfiltered, every sample).
         let trace_start = Instant::now();
-        let mut guides = vec![GuidePixel::default(); w * h];
-        let filtered = path.filtered();
-        let band_stats = guides
-            .par_chunks_mut(band_len)
-            .zip(acc.par_chunks_mut(band_len))
-            .enumerate()
-            .map(|(band, (gs, accs))| {
-                let mut it = Integrator::new(world, &frame.lights, frame.params);
-                let mut rejected = 0;
-                for (k, (g, a)) in gs.iter_mut().zip(accs.iter_mut()).enumerate() {
-                    let (x, y) = (k % w, band * BAND_ROWS + k / w);
-                    let count = if filtered { 1 } else { path.spp as u64 };
-                    for s in 0..count {
-                        let index = base + s;
-                        let centre = if filtered { s == 0 } else { index == 0 };
-                        let (_, cs) = frame.sample(&mut it, x, y, index, centre, IndirectMode::Trace);
-                        if !cs.is_finite() {
-                            rejected += 1;
-                            a.samples += !filtered as u32;
-                            continue;
-                        }
-                        if s == 0 {
-                            g.sample = cs;
-                        }
-                        if !filtered {
-                            a.colour += cs.rest + cs.albedo * cs.indirect;
-                            a.direct += cs.direct;
-                            a.indirect += cs.indirect;
-                            a.covered += cs.covered as u32;
-                            a.samples += 1;
-                        }
-                    }
-                }
-                if pass == 0 && !(filtered && path.spp > 1) {
-                    progress((gs.len() / w) as u64);
-                }
-                BandStats { rays: it.counts, rejected }
-            })
-            .reduce(BandStats::default, BandStats::merge);
-        stats.rays.add(&band_stats.rays);
-        stats.rejected_samples += band_stats.rejected;
-        stats.trace += trace_start.elapsed();
-
-        if filtered {
-            // 2. Filter the guide rays' indirect light.
+        let guide_hooks = if pass == 0 && !(path.filtered() && path.spp > 1) { hooks } else { &quiet };
+        let guides = trace_guides(world, &frame, path, base, &mut acc, guide_hooks, &mut stats)?;
+        trace += trace_start.elapsed();
+        if path.filtered() {
             let filter_start = Instant::now();
-            let mut buffers = FilterBuffers::default();
-            filter_indirect(
-                |i| guides[i].sample.indirect,
-                |i| guides[i].sample.guide,
-                w,
-                h,
-                depth_scale,
-                &path.filter,
-                &mut buffers,
-            )?;
-            let filtered_indirect: Vec<Rgb> = (0..w * h).map(|i| buffers.filtered(i)).collect();
-            stats.filter += filter_start.elapsed();
-            // 3. Further samples read it through the geometry-aware lookup.
+            let filtered = filter_guides(world, &frame, &guides, &path.filter)?;
+            filter += filter_start.elapsed();
             let trace_start = Instant::now();
-            let normals: Vec<Vec3> = guides.iter().map(|g| g.sample.guide.map_or(Vec3::ZERO, |q| q.normal)).collect();
-            let depths: Vec<f32> = guides.iter().map(|g| g.sample.guide.map_or(f32::INFINITY, |q| q.depth)).collect();
-            let map = GuideMap { width: w, height: h, normal: &normals, depth: &depths };
-            let band_stats = acc
-                .par_chunks_mut(band_len)
-                .enumerate()
-                .map(|(band, accs)| {
-                    let mut it = Integrator::new(world, &frame.lights, frame.params);
-                    let mut rejected = 0;
-                    for (k, a) in accs.iter_mut().enumerate() {
-                        let (x, y) = (k % w, band * BAND_ROWS + k / w);
-                        let i = y * w + x;
-                        let g = &guides[i].sample;
-                        a.colour += g.rest + g.albedo * filtered_indirect[i];
-                        a.direct += g.direct;
-                        a.indirect += filtered_indirect[i];
-                        a.covered += g.covered as u32;
-                        a.samples += 1;
-                        for s in 1..path.spp as u64 {
-                            let (pos, cs) = frame.sample(&mut it, x, y, base + s, false, IndirectMode::Lookup);
-                            a.samples += 1;
-                            if !cs.is_finite() {
-                                rejected += 1;
-                                continue;
-                            }
-                            let indirect = match cs.guide {
-                                Some(q) => {
-                                    map.choose(pos, q.normal, q.depth).map_or(Rgb::ZERO, |j| filtered_indirect[j])
-                                }
-                                None => Rgb::ZERO,
-                            };
-                            a.colour += cs.rest + cs.albedo * indirect;
-                            a.direct += cs.direct;
-                            a.covered += cs.covered as u32;
-                        }
-                    }
-                    if pass == 0 && path.spp > 1 {
-                        progress((accs.len() / w) as u64);
-                    }
-                    BandStats { rays: it.counts, rejected }
-                })
-                .reduce(BandStats::default, BandStats::merge);
-            stats.rays.add(&band_stats.rays);
-            stats.rejected_samples += band_stats.rejected;
-            stats.trace += trace_start.elapsed();
+            let lookup_hooks = if pass == 0 && path.spp > 1 { hooks } else { &quiet };
+            trace_lookups(world, &frame, path, base, &guides, &filtered, &mut acc, lookup_hooks, &mut stats)?;
+            trace += trace_start.elapsed();
         }
         if pass == 0 {
             aovs = guides;
@@ -363,12 +254,162 @@ pub fn render_path(
             _ => break,
         }
     }
+    resolve_film(&acc, &aovs, path.filtered(), pass, image, film);
     stats.passes = pass;
     stats.samples_per_pixel = pass * path.spp;
+    stats.elapsed = start.elapsed();
+    stats.stages = vec![("trace", trace), ("filter", filter)];
+    Ok(stats)
+}
 
-    let mut film = Film::new(settings.width, settings.height);
+/// The scene's depth scale for the filter's guide: 1 / its bounding diagonal.
+fn depth_scale(world: &World) -> f32 {
+    let bounds = world.bounds();
+    if bounds.is_empty() { 1.0 } else { 1.0 / bounds.diagonal_length().max(1e-6) }
+}
+
+/// A pass's first step: every pixel's guide ray (through its centre when a filter runs) and,
+/// without a filter, every sample of the pass, added to `acc`.
+fn trace_guides(
+    world: &World,
+    frame: &Frame,
+    path: &PathSettings,
+    base: u64,
+    acc: &mut [Accum],
+    hooks: &Hooks,
+    stats: &mut FrameStats,
+) -> Result<Vec<GuidePixel>, RenderError> {
+    let w = frame.width;
+    let band_len = w * BAND_ROWS;
+    let filtered = path.filtered();
+    let mut guides = vec![GuidePixel::default(); acc.len()];
+    let parts: Vec<_> = guides.chunks_mut(band_len).zip(acc.chunks_mut(band_len)).collect();
+    let totals = bands::run(parts, frame.schedule, hooks, |band, (gs, accs)| {
+        let mut it = Integrator::new(world, &frame.lights, frame.params);
+        let mut rejected = 0;
+        for (k, (g, a)) in gs.iter_mut().zip(accs.iter_mut()).enumerate() {
+            let (x, y) = (k % w, band * BAND_ROWS + k / w);
+            let count = if filtered { 1 } else { path.spp as u64 };
+            for s in 0..count {
+                let index = base + s;
+                let centre = if filtered { s == 0 } else { index == 0 };
+                let (_, cs) = frame.sample(&mut it, x, y, index, centre, IndirectMode::Trace);
+                if !cs.is_finite() {
+                    rejected += 1;
+                    a.samples += !filtered as u32;
+                    continue;
+                }
+                if s == 0 {
+                    g.sample = cs;
+                }
+                if !filtered {
+                    a.colour += cs.rest + cs.albedo * cs.indirect;
+                    a.direct += cs.direct;
+                    a.indirect += cs.indirect;
+                    a.covered += cs.covered as u32;
+                    a.samples += 1;
+                }
+            }
+        }
+        hooks.report((gs.len() / w) as u64);
+        BandStats { rays: it.counts, rejected }
+    })?;
+    stats.rays.add(&totals.rays);
+    stats.rejected_samples += totals.rejected;
+    Ok(guides)
+}
+
+/// A pass's second step: the guide rays' indirect light filtered, guided by their normals and
+/// depths.
+fn filter_guides(
+    world: &World,
+    frame: &Frame,
+    guides: &[GuidePixel],
+    filter: &Filter,
+) -> Result<Vec<Rgb>, RenderError> {
+    let mut buffers = FilterBuffers::default();
+    let height = guides.len() / frame.width.max(1);
+    filter_indirect(
+        |i| guides[i].sample.indirect,
+        |i| guides[i].sample.guide,
+        frame.width,
+        height,
+        depth_scale(world),
+        filter,
+        &mut buffers,
+    )?;
+    Ok((0..guides.len()).map(|i| buffers.filtered(i)).collect())
+}
+
+/// A pass's third step: the guide samples' colours with the filtered indirect light, and the
+/// further samples, which read it through the geometry-aware lookup.
+#[allow(clippy::too_many_arguments)]
+fn trace_lookups(
+    world: &World,
+    frame: &Frame,
+    path: &PathSettings,
+    base: u64,
+    guides: &[GuidePixel],
+    filtered_indirect: &[Rgb],
+    acc: &mut [Accum],
+    hooks: &Hooks,
+    stats: &mut FrameStats,
+) -> Result<(), RenderError> {
+    let w = frame.width;
+    let h = guides.len() / w.max(1);
+    let normals: Vec<Vec3> = guides.iter().map(|g| g.sample.guide.map_or(Vec3::ZERO, |q| q.normal)).collect();
+    let depths: Vec<f32> = guides.iter().map(|g| g.sample.guide.map_or(f32::INFINITY, |q| q.depth)).collect();
+    let map = GuideMap { width: w, height: h, normal: &normals, depth: &depths };
+    let parts: Vec<_> = acc.chunks_mut(w * BAND_ROWS).collect();
+    let totals = bands::run(parts, frame.schedule, hooks, |band, accs| {
+        let mut it = Integrator::new(world, &frame.lights, frame.params);
+        let mut rejected = 0;
+        for (k, a) in accs.iter_mut().enumerate() {
+            let (x, y) = (k % w, band * BAND_ROWS + k / w);
+            let i = y * w + x;
+            let g = &guides[i].sample;
+            a.colour += g.rest + g.albedo * filtered_indirect[i];
+            a.direct += g.direct;
+            a.indirect += filtered_indirect[i];
+            a.covered += g.covered as u32;
+            a.samples += 1;
+            for s in 1..path.spp as u64 {
+                let (pos, cs) = frame.sample(&mut it, x, y, base + s, false, IndirectMode::Lookup);
+                a.samples += 1;
+                if !cs.is_finite() {
+                    rejected += 1;
+                    continue;
+                }
+                let indirect = match cs.guide {
+                    Some(q) => map.choose(pos, q.normal, q.depth).map_or(Rgb::ZERO, |j| filtered_indirect[j]),
+                    None => Rgb::ZERO,
+                };
+                a.colour += cs.rest + cs.albedo * indirect;
+                a.direct += cs.direct;
+                a.covered += cs.covered as u32;
+            }
+        }
+        hooks.report((accs.len() / w) as u64);
+        BandStats { rays: it.counts, rejected }
+    })?;
+    stats.rays.add(&totals.rays);
+    stats.rejected_samples += totals.rejected;
+    Ok(())
+}
+
+/// The frame's pixels from the sums of every pass; normals, depth and albedo from the first
+/// pass's guide samples.
+fn resolve_film(
+    acc: &[Accum],
+    aovs: &[GuidePixel],
+    filtered: bool,
+    passes: u32,
+    image: &ImageSettings,
+    film: &mut Film,
+) {
+    film.reset(image.width, image.height);
     film.path_aovs = true;
-    for ((p, a), g) in film.pixels.iter_mut().zip(&acc).zip(&aovs) {
+    for ((p, a), g) in film.pixels.iter_mut().zip(acc).zip(aovs) {
         let n = a.samples.max(1) as f32;
         let guide = g.sample.guide;
         *p = FilmPixel {
@@ -378,12 +419,10 @@ pub fn render_path(
             depth: guide.map_or(f32::INFINITY, |q| q.depth),
             coverage: a.covered as f32 / n,
             direct: a.direct / n,
-            indirect: if path.filtered() { a.indirect / pass as f32 } else { a.indirect / n },
+            indirect: if filtered { a.indirect / passes as f32 } else { a.indirect / n },
             samples: a.samples as f32,
         };
     }
-    stats.elapsed = start.elapsed();
-    Ok((film, stats))
 }
 
 /// The planes [`filter_indirect`] fills and the filter writes into, kept between calls by a

@@ -21,13 +21,15 @@
 //! ([`World::intersect8`]: the same hits as one ray at a time).
 
 use super::integrator::{GuideGeometry, IndirectMode, Integrator};
-use super::{BAND_ROWS, FilterBuffers, Frame, PathSettings, PathStats, filter_indirect};
-use crate::driver::BandStats;
+use super::{BAND_ROWS, FilterBuffers, Frame, PathSettings, depth_scale, filter_indirect};
+use crate::bands::{self, Hooks};
 use crate::film::{Film, FilmPixel};
-use crate::settings::RenderSettings;
+use crate::settings::ImageSettings;
+use crate::stats::{BandStats, FrameStats};
 use crate::{RenderError, World};
 use glint_core::{Rgb, Vec3};
 use glint_filter::Filter;
+use glint_scene::Camera;
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
@@ -81,24 +83,30 @@ impl PathAccumulator {
         self.sums.first().map_or(0, |s| if self.passes == 0 { 0 } else { s.samples })
     }
 
-    /// Trace `path.spp` more samples per pixel of the world's scene seen by its camera (the
-    /// time budget is ignored). The filter is applied by [`PathAccumulator::resolve`]; here it
+    /// Trace `path.spp` more samples per pixel of the world seen by `camera` (the time budget
+    /// is ignored). The filter is applied by [`PathAccumulator::resolve`]; here it
     /// only decides, with `filter_area_direct`, whether area lights' diffuse direct light joins
     /// the filtered part: pass the same filter to every pass and to `resolve`. A new image
     /// size starts over.
+    ///
+    /// # Errors
+    /// [`RenderError::InvalidSetting`] for settings outside their limits;
+    /// [`RenderError::Cancelled`] when `hooks` cancel it (the pass is then not counted).
     pub fn add_pass(
         &mut self,
         world: &World,
-        settings: &RenderSettings,
+        camera: &Camera,
+        image: &ImageSettings,
         path: &PathSettings,
-    ) -> Result<PathStats, RenderError> {
-        settings.validate()?;
+        hooks: &Hooks,
+    ) -> Result<FrameStats, RenderError> {
+        image.validate()?;
         path.validate()?;
         let start = Instant::now();
-        let (w, h) = (settings.width as usize, settings.height as usize);
-        if (settings.width, settings.height) != (self.width, self.height) {
-            self.width = settings.width;
-            self.height = settings.height;
+        let (w, h) = (image.width as usize, image.height as usize);
+        if (image.width, image.height) != (self.width, self.height) {
+            self.width = image.width;
+            self.height = image.height;
             self.passes = 0;
             // The first pass clears every pixel it traces (in parallel, while its sums are in
             // cache), so only the sizes matter here.
@@ -106,73 +114,81 @@ impl PathAccumulator {
             self.guides.resize(w * h, None);
             self.centre_albedo.resize(w * h, Rgb::ZERO);
         }
-        let frame = Frame::new(world, settings, path);
+        let frame = Frame::new(world, camera, image, path);
         let base = self.passes as u64 * path.spp as u64;
         let first = self.passes == 0;
         let band_len = w * BAND_ROWS;
-        let band_stats = self
+        let parts: Vec<_> = self
             .sums
-            .par_chunks_mut(band_len)
-            .zip(self.guides.par_chunks_mut(band_len))
-            .zip(self.centre_albedo.par_chunks_mut(band_len))
-            .enumerate()
-            .map(|(band, ((sums, guides), albedos))| {
-                let mut it = Integrator::new(world, &frame.lights, frame.params);
-                let mut rejected = 0;
-                let mut hits = [None; 8];
-                // Eight neighbouring pixels at a time: their camera rays are one packet query
-                // (the same hits as one by one; each pixel's samples keep their order).
-                for (g, group) in sums.chunks_mut(8).enumerate() {
-                    let k0 = g * 8;
-                    if first {
-                        group.fill(Sums::default());
-                        guides[k0..k0 + group.len()].fill(None);
-                        albedos[k0..k0 + group.len()].fill(Rgb::ZERO);
-                    }
-                    for s in 0..path.spp as u64 {
-                        let index = base + s;
-                        let mut cams: [_; 8] = std::array::from_fn(|j| {
-                            let k = k0 + j.min(group.len() - 1);
-                            frame.camera_ray(k % w, band * BAND_ROWS + k / w, index, index == 0)
-                        });
-                        world.intersect8(&cams.each_ref().map(|c| c.1), &mut hits);
-                        for (j, a) in group.iter_mut().enumerate() {
-                            let (_, ray, stream) = &mut cams[j];
-                            let cs = frame.sample_from(&mut it, *ray, hits[j], stream, IndirectMode::Trace);
-                            a.samples += 1;
-                            if !cs.is_finite() {
-                                rejected += 1;
-                                continue;
-                            }
-                            if first && s == 0 {
-                                guides[k0 + j] = cs.guide;
-                                albedos[k0 + j] = cs.albedo;
-                            }
-                            a.colour += cs.rest + cs.albedo * cs.indirect;
-                            a.rest += cs.rest;
-                            a.albedo += cs.albedo;
-                            a.direct += cs.direct;
-                            if cs.guide.is_some() {
-                                a.indirect += cs.indirect;
-                                a.guided += 1;
-                            }
-                            a.covered += cs.covered as u32;
+            .chunks_mut(band_len)
+            .zip(self.guides.chunks_mut(band_len))
+            .zip(self.centre_albedo.chunks_mut(band_len))
+            .collect();
+        let band_stats = bands::run(parts, image.schedule, hooks, |band, ((sums, guides), albedos)| {
+            let mut it = Integrator::new(world, &frame.lights, frame.params);
+            let mut rejected = 0;
+            let mut hits = [None; 8];
+            // Eight neighbouring pixels at a time: their camera rays are one packet query
+            // (the same hits as one by one; each pixel's samples keep their order).
+            for (g, group) in sums.chunks_mut(8).enumerate() {
+                let k0 = g * 8;
+                if first {
+                    group.fill(Sums::default());
+                    guides[k0..k0 + group.len()].fill(None);
+                    albedos[k0..k0 + group.len()].fill(Rgb::ZERO);
+                }
+                for s in 0..path.spp as u64 {
+                    let index = base + s;
+                    let mut cams: [_; 8] = std::array::from_fn(|j| {
+                        let k = k0 + j.min(group.len() - 1);
+                        frame.camera_ray(k % w, band * BAND_ROWS + k / w, index, index == 0)
+                    });
+                    world.intersect8(&cams.each_ref().map(|c| c.1), &mut hits);
+                    for (j, a) in group.iter_mut().enumerate() {
+                        let (_, ray, stream) = &mut cams[j];
+                        let cs = frame.sample_from(&mut it, *ray, hits[j], stream, IndirectMode::Trace);
+                        a.samples += 1;
+                        if !cs.is_finite() {
+                            rejected += 1;
+                            continue;
                         }
+                        if first && s == 0 {
+                            guides[k0 + j] = cs.guide;
+                            albedos[k0 + j] = cs.albedo;
+                        }
+                        a.colour += cs.rest + cs.albedo * cs.indirect;
+                        a.rest += cs.rest;
+                        a.albedo += cs.albedo;
+                        a.direct += cs.direct;
+                        if cs.guide.is_some() {
+                            a.indirect += cs.indirect;
+                            a.guided += 1;
+                        }
+                        a.covered += cs.covered as u32;
                     }
                 }
-                BandStats { rays: it.counts, rejected }
-            })
-            .reduce(BandStats::default, BandStats::merge);
+            }
+            hooks.report((sums.len() / w) as u64);
+            BandStats { rays: it.counts, rejected }
+        });
+        let band_stats = match band_stats {
+            Ok(totals) => totals,
+            Err(e) => {
+                // A cancelled pass left the sums half updated: start over next time.
+                self.passes = 0;
+                return Err(e);
+            }
+        };
         self.passes += 1;
         let trace = start.elapsed();
-        Ok(PathStats {
+        Ok(FrameStats {
+            elapsed: trace,
+            stages: vec![("trace", trace)],
             rays: band_stats.rays,
             rejected_samples: band_stats.rejected,
-            passes: 1,
-            samples_per_pixel: path.spp,
-            trace,
-            filter: Duration::ZERO,
-            elapsed: trace,
+            passes: self.passes,
+            samples_per_pixel: self.samples_per_pixel(),
+            ..FrameStats::default()
         })
     }
 
@@ -194,15 +210,13 @@ impl PathAccumulator {
         let filtered = match filter {
             Filter::None => false,
             f => {
-                let bounds = world.bounds();
-                let depth_scale = if bounds.is_empty() { 1.0 } else { 1.0 / bounds.diagonal_length().max(1e-6) };
                 let (sums, guides) = (&self.sums, &self.guides);
                 filter_indirect(
                     |i| mean_indirect(&sums[i]),
                     |i| guides[i],
                     w,
                     h,
-                    depth_scale,
+                    depth_scale(world),
                     f,
                     &mut self.filter_buffers,
                 )?;

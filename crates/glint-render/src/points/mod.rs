@@ -25,6 +25,7 @@ pub use prepared::{MAX_POINTS, PreparedPoints};
 pub use pyramid::{Level, Texel, ellipse_contains, interpolate, pull_texel, push_texel};
 pub use view::View;
 
+use crate::settings::ImageSettings;
 use crate::{Film, FilmPixel, RenderError};
 use glint_core::{Rgb, Vec2, Vec3};
 use glint_scene::sky::IrradianceSh;
@@ -68,10 +69,9 @@ pub enum PointShading {
     Flat,
 }
 
+/// The points mode's settings (the image's size and seed are the frame's [`ImageSettings`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PointSettings {
-    pub width: u32,
-    pub height: u32,
     pub fill: Fill,
     pub shading: PointShading,
     /// Side of the squares in pixels for [`Fill::Squares`].
@@ -82,27 +82,23 @@ pub struct PointSettings {
     pub cull: bool,
 }
 
-impl PointSettings {
-    pub fn new(width: u32, height: u32) -> Self {
-        Self {
-            width,
-            height,
-            fill: Fill::Ellipses,
-            shading: PointShading::Auto,
-            square_side: 3,
-            edl_strength: 1.0,
-            cull: true,
-        }
+impl Default for PointSettings {
+    fn default() -> Self {
+        Self { fill: Fill::Ellipses, shading: PointShading::Auto, square_side: 3, edl_strength: 1.0, cull: true }
     }
+}
 
-    pub fn validate(&self) -> Result<(), RenderError> {
-        if !glint_scene::scene::image_size_ok(self.width, self.height) {
-            return Err(RenderError::InvalidSetting(format!("image size {}x{}", self.width, self.height)));
-        }
-        if u64::from(self.width) * u64::from(self.height) > MAX_POINT_PIXELS {
+impl PointSettings {
+    /// Check the settings, and that `image` is not too large for the points mode's buffers.
+    ///
+    /// # Errors
+    /// [`RenderError::InvalidSetting`] naming the value out of range.
+    pub fn validate(&self, image: &ImageSettings) -> Result<(), RenderError> {
+        image.validate()?;
+        if u64::from(image.width) * u64::from(image.height) > MAX_POINT_PIXELS {
             return Err(RenderError::InvalidSetting(format!(
                 "image size {}x{}: the points mode draws at most 2^25 pixels (e.g. 8192x4096); its buffers take about 250 bytes per pixel",
-                self.width, self.height
+                image.width, image.height
             )));
         }
         if !(1..=15).contains(&self.square_side) {
@@ -237,12 +233,13 @@ impl PointRenderer {
         &mut self,
         scene: &Scene,
         camera: &Camera,
+        image: &ImageSettings,
         settings: &PointSettings,
         frame: &mut PointFrame,
     ) -> Result<PointStats, RenderError> {
-        settings.validate()?;
+        settings.validate(image)?;
         let start = Instant::now();
-        let (w, h) = (settings.width, settings.height);
+        let (w, h) = (image.width, image.height);
         let view = View::new(camera, w, h);
         let clouds = cloud_views(&self.points, &view, settings.cull);
         frame.resize(w, h);
@@ -461,13 +458,4 @@ impl PointRenderer {
     pub fn levels(&self) -> &[pyramid::Level] {
         &self.levels
     }
-}
-
-/// One frame of `scene`'s point clouds with its own camera: the convenience entry point of the
-/// CLI.
-pub fn render_points(scene: &Scene, settings: &PointSettings) -> Result<(PointFrame, PointStats), RenderError> {
-    let mut renderer = PointRenderer::new(scene)?;
-    let mut frame = PointFrame::default();
-    let stats = renderer.render(scene, &scene.camera, settings, &mut frame)?;
-    Ok((frame, stats))
 }

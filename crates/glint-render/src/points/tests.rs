@@ -12,6 +12,18 @@ fn camera() -> Camera {
     Camera { position: Vec3::ZERO, forward: Vec3::NEG_Z, up: Vec3::Y, fov: Fov::Vertical(90.0) }
 }
 
+/// One frame of `scene`'s clouds seen by its camera.
+fn render_points(
+    scene: &Scene,
+    (width, height): (u32, u32),
+    settings: &PointSettings,
+) -> Result<(PointFrame, PointStats), RenderError> {
+    let mut renderer = PointRenderer::new(scene)?;
+    let mut frame = PointFrame::default();
+    let stats = renderer.render(scene, &scene.camera, &ImageSettings::new(width, height), settings, &mut frame)?;
+    Ok((frame, stats))
+}
+
 fn scene_of(clouds: Vec<PointCloud>) -> Scene {
     Scene {
         camera: camera(),
@@ -60,8 +72,8 @@ fn plane(depth: f32, half: f32, spacing: f32, radius: f32, keep: impl Fn(f32, f3
 fn render(scene: &Scene, size: u32, fill: Fill) -> (PointFrame, PointRenderer) {
     let mut r = PointRenderer::new(scene).unwrap();
     let mut frame = PointFrame::default();
-    let settings = PointSettings { fill, ..PointSettings::new(size, size) };
-    r.render(scene, &scene.camera, &settings, &mut frame).unwrap();
+    let settings = PointSettings { fill, ..PointSettings::default() };
+    r.render(scene, &scene.camera, &ImageSettings::new(size, size), &settings, &mut frame).unwrap();
     (frame, r)
 }
 
@@ -391,8 +403,8 @@ fn one_and_two_threads_give_the_same_bits() {
         pool.install(|| {
             let mut r = PointRenderer::new(&scene).unwrap();
             let mut frame = PointFrame::default();
-            let settings = PointSettings { fill, shading, ..PointSettings::new(203, 157) };
-            r.render(&scene, &scene.camera, &settings, &mut frame).unwrap();
+            let settings = PointSettings { fill, shading, ..PointSettings::default() };
+            r.render(&scene, &scene.camera, &ImageSettings::new(203, 157), &settings, &mut frame).unwrap();
             frame
         })
     };
@@ -441,16 +453,16 @@ fn squares_cover_their_side_and_eye_dome_darkens_steps() {
     // One point, squares of 5 px: 25 pixels.
     let one = PointCloud { name: "one".into(), positions: vec![Vec3::new(0.01, 0.01, -4.0)], ..PointCloud::default() };
     let scene = scene_of(vec![one]);
-    let settings = PointSettings { fill: Fill::Squares, square_side: 5, ..PointSettings::new(32, 32) };
-    let (frame, _) = render_points(&scene, &settings).unwrap();
+    let settings = PointSettings { fill: Fill::Squares, square_side: 5, ..PointSettings::default() };
+    let (frame, _) = render_points(&scene, (32, 32), &settings).unwrap();
     assert_eq!(frame.depth.iter().filter(|d| d.is_finite()).count(), 25);
     // Eye-dome: two planes, the far one darkened beside the near one's edge, flat elsewhere.
     let near = plane(4.0, 1.0, 0.02, 0.03, |_, _, _| true);
     let far = plane(8.0, 8.0, 0.04, 0.05, |x, _, _| x > 0.0);
     let mut scene = scene_of(vec![near, far]);
     scene.clouds.iter_mut().for_each(|c| Arc::make_mut(&mut c.cloud).normals = None);
-    let settings = PointSettings { shading: PointShading::Auto, ..PointSettings::new(128, 128) };
-    let (frame, _) = render_points(&scene, &settings).unwrap();
+    let settings = PointSettings { shading: PointShading::Auto, ..PointSettings::default() };
+    let (frame, _) = render_points(&scene, (128, 128), &settings).unwrap();
     let at = |x: usize, y: usize| frame.colour[y * 128 + x].x;
     // Near plane spans pixels 48..80; the far plane's pixels just right of it are dark.
     assert!(at(81, 64) < 0.5 * at(100, 64), "{} vs {}", at(81, 64), at(100, 64));
@@ -461,16 +473,14 @@ fn squares_cover_their_side_and_eye_dome_darkens_steps() {
 fn clouds_only_scenes_and_empty_views_render() {
     // Everything behind the camera: the sky alone.
     let scene = scene_of(vec![plane(-4.0, 1.0, 0.1, 0.1, |_, _, _| true)]);
-    let (frame, stats) = render_points(&scene, &PointSettings::new(16, 16)).unwrap();
+    let (frame, stats) = render_points(&scene, (16, 16), &PointSettings::default()).unwrap();
     assert_eq!(frame.coverage(), 0.0);
     assert_eq!(stats.projected_pixels, 0);
     assert!(frame.colour.iter().all(|&c| c == Rgb::new(0.1, 0.2, 0.3)));
-    let bad = PointSettings { square_side: 0, ..PointSettings::new(16, 16) };
-    assert!(render_points(&scene, &bad).is_err());
-    let bad = PointSettings::new(0, 16);
-    assert!(render_points(&scene, &bad).is_err());
+    let bad = PointSettings { square_side: 0, ..PointSettings::default() };
+    assert!(render_points(&scene, (16, 16), &bad).is_err());
+    assert!(render_points(&scene, (0, 16), &PointSettings::default()).is_err());
     // Too many pixels for the points mode's buffers: refused before anything is allocated.
-    let huge = PointSettings::new(16384, 8192);
-    let e = render_points(&scene, &huge).err().unwrap().to_string();
+    let e = render_points(&scene, (16384, 8192), &PointSettings::default()).err().unwrap().to_string();
     assert!(e.contains("2^25 pixels"), "{e}");
 }

@@ -1,209 +1,160 @@
-//! Whitted ray tracing (DESIGN.md §1; the thesis's backward ray tracer).
+//! Whitted ray tracing (DESIGN.md §1; the thesis's backward ray tracer): a frame of it.
 //!
-//! At the nearest hit: Phong local shading with one shadow ray per light (attenuated through
-//! transparent occluders), plus a reflected and a refracted ray, combined as
-//! `I = I_local + K_refl I_refl + K_refr I_refr`. The tree of rays is walked with an explicit
-//! stack, never by recursion; a branch stops at the maximum depth or when its accumulated weight
-//! falls under the contribution threshold. Rays that leave the scene return the sky.
+//! Each pixel's samples (N×N stratified, or one sample of a progressive pass) are traced by
+//! [`Tracer`] (`tracer.rs`: Phong with shadow rays, reflection and refraction on an explicit
+//! stack) and averaged into the film with the first hit's AOVs. Bands of rows go to threads
+//! through the shared band driver; inside a band pixels are visited in 8×8 blocks for ray
+//! coherence. Every sample position is `hash(pixel, sample, seed)`: the image does not depend
+//! on the thread count.
 
 pub mod optics;
+mod tracer;
 
-use crate::world::{SurfaceHit, World};
-use glint_core::{Ray, Rgb, Vec3};
-use optics::{fresnel_dielectric, reflect, refract};
+pub use tracer::{FirstHit, Tracer};
 
-/// Counts of rays traced, by kind.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct RayCounts {
-    pub primary: u64,
-    pub secondary: u64,
-    pub shadow: u64,
+use crate::bands::{self, Hooks};
+use crate::film::{Film, FilmPixel};
+use crate::settings::{ImageSettings, WhittedSettings};
+use crate::stats::{BandStats, FrameStats};
+use crate::{RenderError, World};
+use glint_core::random::SampleStream;
+use glint_core::sampling::stratified_2d;
+use glint_core::{Rgb, Vec2, Vec3};
+use glint_scene::Camera;
+use std::time::Instant;
+
+/// Rows per unit of parallel work.
+const BAND_ROWS: usize = 8;
+/// Columns per block inside a band (pixels are visited in 8×8 blocks for ray coherence).
+const BLOCK_COLS: usize = 8;
+
+/// Where a pixel's samples go.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Samples {
+    /// `samples_per_side`² stratified samples (one at the centre when that is 1).
+    Stratified,
+    /// One sample of progressive pass k: through the pixel centre in pass 0, hash-jittered in
+    /// pass k > 0, so the average of passes 0..N converges to the supersampled image whatever
+    /// the thread count (the viewer adds passes while the camera rests).
+    Pass(u32),
 }
 
-impl RayCounts {
-    pub fn total(&self) -> u64 {
-        self.primary + self.secondary + self.shadow
-    }
+/// Render a Whitted frame of the world seen by `camera` into `film` (resized to the image).
+///
+/// # Errors
+/// [`RenderError::InvalidSetting`] for settings outside their limits;
+/// [`RenderError::Cancelled`] when `hooks` cancel it.
+pub fn render(
+    world: &World,
+    camera: &Camera,
+    image: &ImageSettings,
+    settings: &WhittedSettings,
+    samples: Samples,
+    hooks: &Hooks,
+    film: &mut Film,
+) -> Result<FrameStats, RenderError> {
+    image.validate()?;
+    let settings = match samples {
+        Samples::Stratified => *settings,
+        Samples::Pass(_) => WhittedSettings { samples_per_side: 1, ..*settings },
+    };
+    settings.validate()?;
+    let start = Instant::now();
+    let w = image.width as usize;
+    film.reset(image.width, image.height);
+    let rays = camera.rays(image.width, image.height);
+    // Ray footprints for sky filtering: a sample's angular width at the image centre (a
+    // pixel's over the samples per side), shrinking off-axis as cos^1.5 (a pinhole pixel
+    // subtends cos³ of the centre's solid angle). Reflected and refracted rays keep their
+    // primary ray's footprint: exact behind flat mirrors, too sharp behind curved ones, never
+    // too blurry.
+    let centre_cone = 1.0 / (rays.focal_pixels * settings.samples_per_side as f32);
+    let forward = camera.forward.normalize();
 
-    pub fn add(&mut self, o: &RayCounts) {
-        self.primary += o.primary;
-        self.secondary += o.secondary;
-        self.shadow += o.shadow;
-    }
-}
-
-/// What the primary ray saw first (for the AOVs).
-#[derive(Clone, Copy, Debug)]
-pub struct FirstHit {
-    pub normal: Vec3,
-    pub albedo: Rgb,
-    pub position: Vec3,
-}
-
-/// One ray of the tree, with its ray cone (Akenine-Möller et al. 2021): the footprint's width
-/// at the ray origin and its spread angle, both in world units/radians. Sky lookups filter over
-/// the spread; curved mirrors widen it.
-#[derive(Clone, Copy)]
-struct Branch {
-    ray: Ray,
-    weight: Rgb,
-    depth: u32,
-    width: f32,
-    spread: f32,
-}
-
-/// Reusable per-thread state (the branch stack).
-#[derive(Default)]
-pub struct Tracer {
-    stack: Vec<Branch>,
-    pub counts: RayCounts,
-}
-
-pub struct WhittedParams {
-    pub max_depth: u32,
-    pub min_contribution: f32,
-}
-
-impl Tracer {
-    /// Radiance along a primary ray, and its first hit.
-    /// `cone` is the primary ray's footprint (angular width in radians) for sky filtering.
-    pub fn trace(&mut self, world: &World, ray: Ray, cone: f32, params: &WhittedParams) -> (Rgb, Option<FirstHit>) {
-        let mut colour = Rgb::ZERO;
-        let mut first = None;
-        self.stack.clear();
-        self.stack.push(Branch { ray, weight: Rgb::ONE, depth: 0, width: 0.0, spread: cone });
-        while let Some(b) = self.stack.pop() {
-            if b.depth == 0 {
-                self.counts.primary += 1;
-            } else {
-                self.counts.secondary += 1;
-            }
-            let Some(hit) = world.intersect(&b.ray) else {
-                colour += b.weight * world.sky().radiance_filtered(b.ray.dir, b.spread);
-                continue;
-            };
-            let m = world.material(hit.material);
-            let albedo = world.albedo(&hit);
-            // Every ray direction here is unit length (camera rays are normalised, reflection
-            // preserves length, refraction renormalises).
-            let wo = -b.ray.dir;
-            // Orient the normals toward the side the ray came from.
-            let entering = hit.geometric_normal.dot(wo) >= 0.0;
-            let (ng, ns) = if entering {
-                (hit.geometric_normal, hit.shading_normal)
-            } else {
-                (-hit.geometric_normal, -hit.shading_normal)
-            };
-            if b.depth == 0 {
-                first = Some(FirstHit { normal: ns, albedo, position: hit.position });
-            }
-            let local = self.local(world, &hit, m, albedo, wo, ng, ns);
-            let cos_o = ns.dot(wo).clamp(0.0, 1.0);
-            // The cone at the hit and after it (ray cones): a mirror of curvature κ turns the
-            // edges of a footprint of width w apart by 2κw on its convex side (together on its
-            // concave side); a refracting surface bends the spread like a thin lens of power
-            // (η_t − η_i)κ / η_t, converging where the surface bulges toward the ray. Past a
-            // focus the cone widens again, hence the absolute values.
-            let width = b.width + b.spread * hit.t;
-            let curvature = if entering { world.curvature(hit.object) } else { -world.curvature(hit.object) };
-            let reflected_spread = (b.spread + 2.0 * curvature * width).abs();
-            // Fresnel reflection (DESIGN.md §4): lerp(shaded, reflected, F), F by Schlick.
-            if let Some(f) = m.schlick(cos_o) {
-                colour += b.weight * local * (Rgb::ONE - f);
-                if b.depth < params.max_depth {
-                    let weight = b.weight * f;
-                    if weight.max_element() > params.min_contribution {
-                        let ray = hit.spawn_ray(reflect(-wo, ns));
-                        self.stack.push(Branch { ray, weight, depth: b.depth + 1, width, spread: reflected_spread });
+    let render_band = |band_index: usize, band: &mut [FilmPixel]| -> BandStats {
+        let mut tracer = Tracer::default();
+        let mut rejected = 0;
+        let y0 = band_index * BAND_ROWS;
+        let rows = band.len() / w;
+        let n = settings.samples_per_side;
+        let inv_samples = 1.0 / (n * n) as f32;
+        for bx in (0..w).step_by(BLOCK_COLS) {
+            for row in 0..rows {
+                let y = y0 + row;
+                for x in bx..(bx + BLOCK_COLS).min(w) {
+                    let pixel_index = (y * w + x) as u64;
+                    let mut acc = PixelAccumulator::default();
+                    for s in 0..n * n {
+                        let offset = match samples {
+                            Samples::Stratified if n == 1 => Vec2::splat(0.5),
+                            Samples::Pass(0) => Vec2::splat(0.5),
+                            Samples::Stratified => {
+                                let mut stream = SampleStream::new(pixel_index, s as u64, image.seed);
+                                stratified_2d(s, n, stream.next_2d())
+                            }
+                            Samples::Pass(k) => SampleStream::new(pixel_index, k as u64, image.seed).next_2d(),
+                        };
+                        let ray = rays.ray(Vec2::new(x as f32, y as f32) + offset);
+                        let cos = ray.dir.dot(forward);
+                        let (c, first) = tracer.trace(world, ray, centre_cone * cos * cos.sqrt(), &settings);
+                        if c.is_finite() {
+                            acc.colour += c;
+                        } else {
+                            rejected += 1;
+                        }
+                        if let Some(f) = first {
+                            acc.hits += 1;
+                            acc.normal += f.normal;
+                            acc.albedo += f.albedo;
+                            acc.depth += rays.depth(f.position);
+                        }
                     }
+                    band[row * w + x] = acc.finish(inv_samples);
                 }
-                continue;
-            }
-            colour += b.weight * local * (1.0 - m.transparency);
-
-            if b.depth >= params.max_depth {
-                continue;
-            }
-            // Reflection and refraction weights.
-            let (mut k_refl, mut k_refr) = (m.reflectivity, m.transparency);
-            let (eta_i, eta_t) = if entering { (1.0, m.ior) } else { (m.ior, 1.0) };
-            let refracted = if m.is_transparent() { refract(-wo, ns, eta_i / eta_t) } else { None };
-            if m.is_transparent() && m.fresnel {
-                let f = match refracted {
-                    Some(_) => fresnel_dielectric(cos_o, eta_i, eta_t),
-                    None => 1.0, // total internal reflection
-                };
-                k_refl = (m.reflectivity + m.transparency * f).min(1.0);
-                k_refr = m.transparency * (1.0 - f);
-            } else if m.is_transparent() && refracted.is_none() {
-                k_refl = (k_refl + k_refr).min(1.0);
-                k_refr = 0.0;
-            }
-            let push = |stack: &mut Vec<Branch>, dir: Vec3, k: f32, spread: f32| {
-                let weight = b.weight * k;
-                if k > 0.0 && weight.max_element() > params.min_contribution {
-                    stack.push(Branch { ray: hit.spawn_ray(dir), weight, depth: b.depth + 1, width, spread });
-                }
-            };
-            push(&mut self.stack, reflect(-wo, ns), k_refl, reflected_spread);
-            if let Some(t) = refracted {
-                let spread = (b.spread * eta_i / eta_t - (eta_t - eta_i) / eta_t * curvature * width).abs();
-                push(&mut self.stack, t, k_refr, spread);
             }
         }
-        (colour, first)
-    }
+        hooks.report(rows as u64);
+        BandStats { rays: tracer.counts, rejected }
+    };
 
-    /// Phong: `K_a I_a + Σ visible lights (K_d I max(0, L·N) + K_s I max(0, R·V)^n)` plus emission.
-    #[allow(clippy::too_many_arguments)]
-    fn local(
-        &mut self,
-        world: &World,
-        hit: &SurfaceHit,
-        m: &glint_scene::Material,
-        albedo: Rgb,
-        wo: Vec3,
-        ng: Vec3,
-        ns: Vec3,
-    ) -> Rgb {
-        let mut c = m.emission + world.ambient(ns) * albedo * m.ambient;
-        // Lights in groups: every shadow ray of a group is set up before any is traced, so the
-        // (latency-bound) set-ups and traversals of different lights overlap; the group's
-        // contributions are then added in light order, as one light at a time would.
-        const GROUP: usize = 4;
-        for lights in world.scene.lights.chunks(GROUP) {
-            let mut rays = [None; GROUP];
-            for (slot, light) in rays.iter_mut().zip(lights) {
-                let Some(ls) = light.sample_at(hit.position) else { continue };
-                let cos_l = ns.dot(ls.wi);
-                // Lights below the geometric surface are not seen, whatever the shading normal says.
-                if cos_l <= 0.0 || ng.dot(ls.wi) <= 0.0 {
-                    continue;
-                }
-                let shadow = if ls.distance.is_finite() {
-                    hit.spawn_ray_to(hit.position + ls.wi * ls.distance)
-                } else {
-                    hit.spawn_ray(ls.wi)
-                };
-                *slot = Some((ls, cos_l, shadow));
-            }
-            for (ls, cos_l, shadow) in rays.into_iter().flatten() {
-                self.counts.shadow += 1;
-                let vis = world.transmittance(&shadow);
-                if vis == Rgb::ZERO {
-                    continue;
-                }
-                let r = reflect(-ls.wi, ns);
-                // R·V ≤ 0 gives 0^n = 0 for n > 0: no powf needed (bit for bit the same).
-                let r_dot_v = r.dot(wo);
-                let spec = if m.specular > 0.0 && (r_dot_v > 0.0 || m.shininess <= 0.0) {
-                    r_dot_v.max(0.0).powf(m.shininess) * m.specular
-                } else {
-                    0.0
-                };
-                c += vis * ls.radiance * (albedo * (m.diffuse * cos_l) + Rgb::splat(spec));
-            }
+    let parts: Vec<&mut [FilmPixel]> = film.pixels.chunks_mut(w * BAND_ROWS).collect();
+    let totals = bands::run(parts, image.schedule, hooks, render_band)?;
+    let elapsed = start.elapsed();
+    let n = settings.samples_per_side;
+    Ok(FrameStats {
+        elapsed,
+        stages: vec![("trace", elapsed)],
+        rays: totals.rays,
+        rejected_samples: totals.rejected,
+        passes: 1,
+        samples_per_pixel: n * n,
+        ..FrameStats::default()
+    })
+}
+
+#[derive(Default)]
+struct PixelAccumulator {
+    colour: Rgb,
+    normal: Vec3,
+    albedo: Rgb,
+    depth: f32,
+    hits: u32,
+}
+
+impl PixelAccumulator {
+    fn finish(self, inv_samples: f32) -> FilmPixel {
+        let coverage = self.hits as f32 * inv_samples;
+        if self.hits == 0 {
+            return FilmPixel { colour: self.colour * inv_samples, ..FilmPixel::default() };
         }
-        c
+        let inv_hits = 1.0 / self.hits as f32;
+        FilmPixel {
+            colour: self.colour * inv_samples,
+            normal: self.normal.normalize_or_zero(),
+            albedo: self.albedo * inv_hits,
+            depth: self.depth * inv_hits,
+            coverage,
+            ..FilmPixel::default()
+        }
     }
 }

@@ -1,0 +1,439 @@
+//! One frame of any mode (pipeline: World + camera + settings → **frame** → film/AOVs): the
+//! single place a mode is chosen and built. The CLI's `render` and `bench` commands and the
+//! viewer all come here; none of them knows how a mode makes its picture.
+//!
+//! A [`Renderer`] holds what a scene needs for every mode it has content for (the traced
+//! [`World`] of its objects, the laid-out points of its clouds) and the buffers frames reuse.
+//! [`Renderer::render`] draws a whole frame (every sample the mode's settings ask for);
+//! [`Renderer::add_pass`] draws progressively, starting a picture or refining the one it holds:
+//! the Whitted mode adds a jittered pass (converging to the N×N stratified image), the path mode
+//! adds samples to its accumulation and filters the accumulation ([`PathAccumulator`]), the
+//! points mode is exact in one pass. A points frame lays the scene's traced objects over its
+//! clouds by depth (the nearer surface wins each pixel).
+
+use crate::bands::Hooks;
+use crate::film::Film;
+use crate::path::{PathAccumulator, PathSettings, render_path};
+use crate::points::{PointFrame, PointRenderer, PointSettings};
+use crate::settings::{ImageSettings, WhittedSettings};
+use crate::stats::FrameStats;
+use crate::whitted::{self, Samples};
+use crate::{RenderError, World};
+use glint_core::Rgb;
+use glint_scene::{Camera, RenderDefaults, RenderMode, Scene};
+use std::time::{Duration, Instant};
+
+/// A rendering mode with its settings: the closed set every front end chooses from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Mode {
+    /// Whitted ray tracing (DESIGN.md §1).
+    Whitted(WhittedSettings),
+    /// Path tracing with filtered indirect light (DESIGN.md §2).
+    Path(PathSettings),
+    /// Point clouds by pull-push reconstruction (DESIGN.md §3); the scene's objects, if any,
+    /// are traced Whitted-style with `meshes` and laid over the clouds by depth.
+    Points { points: PointSettings, meshes: WhittedSettings },
+}
+
+impl Mode {
+    #[must_use]
+    pub fn kind(&self) -> RenderMode {
+        match self {
+            Mode::Whitted(_) => RenderMode::Whitted,
+            Mode::Path(_) => RenderMode::Path,
+            Mode::Points { .. } => RenderMode::Points,
+        }
+    }
+}
+
+/// Every mode's settings at once, so that a front end can switch modes and keep each one's
+/// settings (the viewer's keys 1/2/3).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModeSettings {
+    pub whitted: WhittedSettings,
+    pub path: PathSettings,
+    pub points: PointSettings,
+}
+
+impl ModeSettings {
+    /// The settings a scene file gives (its `[image]` samples and `[render]` section).
+    #[must_use]
+    pub fn from_defaults(d: &RenderDefaults) -> Self {
+        Self {
+            whitted: WhittedSettings::from_defaults(d),
+            path: PathSettings { max_bounces: d.max_bounces, max_chain: d.max_depth, ..PathSettings::default() },
+            points: PointSettings::default(),
+        }
+    }
+
+    /// The mode `kind` with these settings.
+    #[must_use]
+    pub fn mode(&self, kind: RenderMode) -> Mode {
+        match kind {
+            RenderMode::Whitted => Mode::Whitted(self.whitted),
+            RenderMode::Path => Mode::Path(self.path),
+            RenderMode::Points => Mode::Points { points: self.points, meshes: self.whitted },
+        }
+    }
+}
+
+/// The picture a [`Renderer`] holds: a film, or (a points frame of clouds alone, which the
+/// viewer displays straight from the points buffers) the points frame.
+pub enum Picture<'a> {
+    Film(&'a Film),
+    Points(&'a PointFrame),
+}
+
+/// Whether a frame is whole or one pass of a progressive picture.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Step {
+    Whole,
+    Pass { restart: bool },
+}
+
+/// A scene made renderable in every mode it has content for, and the picture being drawn.
+pub struct Renderer {
+    world: World,
+    points: Option<PointRenderer>,
+    /// Time spent laying out the clouds (Morton order, packed normals), once per scene.
+    layout: Duration,
+    point_frame: PointFrame,
+    /// The picture so far (beauty + AOVs) at the render size.
+    film: Film,
+    /// A Whitted refinement pass before it is added to the picture.
+    scratch: Film,
+    /// Whitted: the sum of the passes' colours.
+    whitted_sum: Vec<Rgb>,
+    path: PathAccumulator,
+    /// Whitted passes in the picture (0: nothing drawn yet).
+    passes: u32,
+    /// Passes (Whitted), samples per pixel (path) or 1 (points) in the picture.
+    accumulated: u32,
+    /// The picture is a progressive one that a pass may refine (not a whole frame).
+    progressive: bool,
+    /// The picture is `point_frame` (clouds alone), not `film`.
+    points_picture: bool,
+    /// `film` holds a copy of `point_frame` (made on demand).
+    film_synced: bool,
+}
+
+impl Renderer {
+    /// Build what a validated scene's content needs: a BVH world for its objects, the points
+    /// layout for its clouds.
+    ///
+    /// # Errors
+    /// [`RenderError::InvalidSetting`] when the clouds cannot be laid out (too many points).
+    pub fn new(scene: Scene) -> Result<Self, RenderError> {
+        let start = Instant::now();
+        let points = if scene.clouds.is_empty() { None } else { Some(PointRenderer::new(&scene)?) };
+        let layout = start.elapsed();
+        Ok(Self {
+            world: World::new(scene),
+            points,
+            layout,
+            point_frame: PointFrame::default(),
+            film: Film::new(1, 1),
+            scratch: Film::new(1, 1),
+            whitted_sum: Vec::new(),
+            path: PathAccumulator::new(),
+            passes: 0,
+            accumulated: 0,
+            progressive: false,
+            points_picture: false,
+            film_synced: false,
+        })
+    }
+
+    /// The scene as drawn now (animated to the current time).
+    #[must_use]
+    pub fn scene(&self) -> &Scene {
+        self.world.scene()
+    }
+
+    /// The traced world of the scene's objects.
+    #[must_use]
+    pub fn world(&self) -> &World {
+        &self.world
+    }
+
+    /// Whether the scene has content for mode `kind`: objects for the ray tracers, clouds for
+    /// the points mode.
+    #[must_use]
+    pub fn supports(&self, kind: RenderMode) -> bool {
+        match kind {
+            RenderMode::Whitted | RenderMode::Path => !self.scene().objects.is_empty(),
+            RenderMode::Points => self.points.is_some(),
+        }
+    }
+
+    /// Move the scene's animations to time `t` (seconds): only the top level of the BVH is
+    /// rebuilt. Returns whether anything moved (a progressive picture must then start over).
+    pub fn set_time(&mut self, t: f32) -> bool {
+        self.world.set_time(t)
+    }
+
+    /// Draw a whole frame of `mode` seen by `camera`: every sample its settings ask for. The
+    /// picture is then [`Renderer::film`].
+    ///
+    /// # Errors
+    /// [`RenderError::InvalidSetting`] for settings outside their limits or a mode the scene
+    /// has no content for; [`RenderError::Cancelled`] when `hooks` cancel it.
+    pub fn render(
+        &mut self,
+        camera: &Camera,
+        image: &ImageSettings,
+        mode: &Mode,
+        hooks: &Hooks,
+    ) -> Result<FrameStats, RenderError> {
+        self.frame(camera, image, mode, Step::Whole, hooks)
+    }
+
+    /// Draw one pass of a progressive picture: afresh (`restart`, or when the image size
+    /// changed or nothing is drawn yet), else added to the picture drawn with the same camera
+    /// and settings. A refining points frame does nothing (the points mode is exact in one
+    /// pass) and returns no stages.
+    ///
+    /// # Errors
+    /// As [`Renderer::render`].
+    pub fn add_pass(
+        &mut self,
+        camera: &Camera,
+        image: &ImageSettings,
+        mode: &Mode,
+        restart: bool,
+        hooks: &Hooks,
+    ) -> Result<FrameStats, RenderError> {
+        let restart = restart || !self.progressive || self.size() != (image.width, image.height);
+        self.frame(camera, image, mode, Step::Pass { restart }, hooks)
+    }
+
+    /// The one mode dispatch.
+    fn frame(
+        &mut self,
+        camera: &Camera,
+        image: &ImageSettings,
+        mode: &Mode,
+        step: Step,
+        hooks: &Hooks,
+    ) -> Result<FrameStats, RenderError> {
+        if !self.supports(mode.kind()) {
+            return Err(RenderError::InvalidSetting(match mode.kind() {
+                RenderMode::Points => "this scene has no point clouds for the points mode".into(),
+                _ => "this scene has only point clouds: the ray-tracing modes have nothing to trace".into(),
+            }));
+        }
+        let start = Instant::now();
+        // Until this frame is done, there is nothing to refine.
+        (self.progressive, self.accumulated) = (false, 0);
+        let mut stats = match mode {
+            Mode::Whitted(settings) => self.whitted(camera, image, settings, step, hooks)?,
+            Mode::Path(settings) => self.path(camera, image, settings, step, hooks)?,
+            Mode::Points { points, meshes } => self.points(camera, image, points, meshes, step, hooks)?,
+        };
+        stats.elapsed = start.elapsed();
+        self.progressive = step != Step::Whole;
+        self.accumulated = match mode {
+            Mode::Whitted(_) => stats.passes,
+            _ => stats.samples_per_pixel,
+        };
+        Ok(stats)
+    }
+
+    fn whitted(
+        &mut self,
+        camera: &Camera,
+        image: &ImageSettings,
+        settings: &WhittedSettings,
+        step: Step,
+        hooks: &Hooks,
+    ) -> Result<FrameStats, RenderError> {
+        self.points_picture = false;
+        let world = &self.world;
+        let mut stats = match step {
+            Step::Whole => {
+                self.passes = 1;
+                whitted::render(world, camera, image, settings, Samples::Stratified, hooks, &mut self.film)?
+            }
+            Step::Pass { restart: true } => {
+                self.passes = 0;
+                let stats = whitted::render(world, camera, image, settings, Samples::Pass(0), hooks, &mut self.film)?;
+                self.whitted_sum.clear();
+                self.whitted_sum.extend(self.film.pixels.iter().map(|p| p.colour));
+                self.passes = 1;
+                stats
+            }
+            Step::Pass { restart: false } => {
+                let pass = Samples::Pass(self.passes);
+                let stats = whitted::render(world, camera, image, settings, pass, hooks, &mut self.scratch)?;
+                for (sum, p) in self.whitted_sum.iter_mut().zip(&self.scratch.pixels) {
+                    *sum += p.colour;
+                }
+                self.passes += 1;
+                let inv = 1.0 / self.passes as f32;
+                for (out, sum) in self.film.pixels.iter_mut().zip(&self.whitted_sum) {
+                    out.colour = *sum * inv;
+                }
+                stats
+            }
+        };
+        stats.passes = self.passes;
+        if step == Step::Whole {
+            stats.summary = format!(
+                "whitted {}x{} at {} spp in {:.3} s ({:.1} Mrays/s, {}), {} NaN/inf samples dropped",
+                image.width,
+                image.height,
+                stats.samples_per_pixel,
+                stats.elapsed.as_secs_f64(),
+                stats.mrays_per_second(),
+                self.built(),
+                stats.rejected_samples,
+            );
+        }
+        Ok(stats)
+    }
+
+    fn path(
+        &mut self,
+        camera: &Camera,
+        image: &ImageSettings,
+        settings: &PathSettings,
+        step: Step,
+        hooks: &Hooks,
+    ) -> Result<FrameStats, RenderError> {
+        self.points_picture = false;
+        let world = &self.world;
+        match step {
+            Step::Whole => {
+                let mut stats = render_path(world, camera, image, settings, hooks, &mut self.film)?;
+                let trace = stats.stage("trace").unwrap_or_default();
+                stats.summary = format!(
+                    "path {}x{} at {} spp ({} pass{}, {} bounces, filter {}) in {:.3} s (trace {:.3} s at {:.1} Mrays/s, filter {:.1} ms, {}), {} NaN/inf samples dropped",
+                    image.width,
+                    image.height,
+                    stats.samples_per_pixel,
+                    stats.passes,
+                    if stats.passes == 1 { "" } else { "es" },
+                    settings.max_bounces,
+                    settings.filter,
+                    stats.elapsed.as_secs_f64(),
+                    trace.as_secs_f64(),
+                    stats.mrays_per_second(),
+                    stats.stage("filter").unwrap_or_default().as_secs_f64() * 1e3,
+                    self.built(),
+                    stats.rejected_samples,
+                );
+                Ok(stats)
+            }
+            Step::Pass { restart } => {
+                if restart {
+                    self.path.reset();
+                }
+                let mut stats = self.path.add_pass(world, camera, image, settings, hooks)?;
+                let filter = self.path.resolve(world, &settings.filter, &mut self.film)?;
+                stats.stages.push(("filter", filter));
+                Ok(stats)
+            }
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn points(
+        &mut self,
+        camera: &Camera,
+        image: &ImageSettings,
+        settings: &PointSettings,
+        meshes: &WhittedSettings,
+        step: Step,
+        hooks: &Hooks,
+    ) -> Result<FrameStats, RenderError> {
+        if step == (Step::Pass { restart: false }) {
+            return Ok(FrameStats { passes: 1, samples_per_pixel: 1, ..FrameStats::default() });
+        }
+        let Some(points) = self.points.as_mut() else {
+            return Err(RenderError::InvalidSetting("this scene has no point clouds for the points mode".into()));
+        };
+        hooks.check()?;
+        let scene = self.world.scene();
+        let s = points.render(scene, camera, image, settings, &mut self.point_frame)?;
+        let ms = |v: f64| Duration::from_secs_f64(v * 1e-3);
+        let mut stats = FrameStats {
+            stages: vec![("project", ms(s.project_ms)), ("pull-push", ms(s.pull_push_ms)), ("shade", ms(s.shade_ms))],
+            points: s.points,
+            passes: 1,
+            samples_per_pixel: 1,
+            ..FrameStats::default()
+        };
+        let mut traced = String::new();
+        if scene.objects.is_empty() {
+            // Clouds alone: the picture is the points frame; the film is made on demand.
+            self.points_picture = true;
+            self.film_synced = false;
+        } else {
+            self.points_picture = false;
+            self.point_frame.write_film(&mut self.film);
+            let m = whitted::render(&self.world, camera, image, meshes, Samples::Stratified, hooks, &mut self.scratch)?;
+            self.film.composite_nearer(&self.scratch);
+            stats.stages.push(("trace", m.elapsed));
+            stats.rays = m.rays;
+            stats.rejected_samples = m.rejected_samples;
+            traced = format!(", meshes traced in {:.1} ms", m.elapsed.as_secs_f64() * 1e3);
+        }
+        if step == Step::Whole {
+            stats.summary = format!(
+                "points {}x{} ({} points, fill {:?}) in {:.1} ms: project {:.1} ms, pull-push {:.1} ms, shade {:.1} ms ({:.0} M points/s; layout {:.0} ms{traced})",
+                image.width,
+                image.height,
+                s.points,
+                settings.fill,
+                s.total_ms,
+                s.project_ms,
+                s.pull_push_ms,
+                s.shade_ms,
+                s.points_per_second() * 1e-6,
+                self.layout.as_secs_f64() * 1e3,
+            );
+        }
+        Ok(stats)
+    }
+
+    /// "build X ms, N triangles": the acceleration structures, for summaries.
+    fn built(&self) -> String {
+        let s = &self.world.stats;
+        format!("build {:.1} ms, {} triangles", s.build_ms, s.triangles)
+    }
+
+    /// The picture as a film (beauty + AOVs at the render size). A points frame of clouds
+    /// alone is copied into the film only when asked (a screenshot, an output file).
+    pub fn film(&mut self) -> &Film {
+        if self.points_picture && !self.film_synced {
+            self.point_frame.write_film(&mut self.film);
+            self.film_synced = true;
+        }
+        &self.film
+    }
+
+    /// The picture as it is held (for a display that reads points frames directly).
+    #[must_use]
+    pub fn picture(&self) -> Picture<'_> {
+        match self.points_picture {
+            true => Picture::Points(&self.point_frame),
+            false => Picture::Film(&self.film),
+        }
+    }
+
+    /// The picture's size (the render size of the last frame).
+    #[must_use]
+    pub fn size(&self) -> (u32, u32) {
+        match self.points_picture {
+            true => (self.point_frame.width, self.point_frame.height),
+            false => (self.film.width, self.film.height),
+        }
+    }
+
+    /// Passes (Whitted) or samples per pixel (path) in the picture; 1 for points; 0 before
+    /// the first frame and after a failed one.
+    #[must_use]
+    pub fn accumulated(&self) -> u32 {
+        self.accumulated
+    }
+}

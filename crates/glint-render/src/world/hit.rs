@@ -1,0 +1,181 @@
+//! Shading at a hit (pipeline: World → **surface data** → integrators): the closest hit
+//! turned into everything shading needs — position with its floating-point error bound (pbrt
+//! §3.9), geometric and shading normals, uv, material — and the material queries integrators
+//! make (albedo with textures, ambient light).
+
+use super::World;
+use super::instances::{Found, Instance, InstanceShape, Plane, transform_ray};
+use glint_core::float::{gamma, offset_ray_origin};
+use glint_core::{Mat3, Ray, Rgb, Vec2, Vec3};
+
+/// Everything shading needs about a ray's closest hit.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceHit {
+    pub t: f32,
+    pub position: Vec3,
+    /// Conservative absolute error bound of `position`, per axis.
+    pub p_error: Vec3,
+    /// Unit geometric normal as the geometry orients it (outward for spheres; by winding for
+    /// triangles), not flipped toward the ray.
+    pub geometric_normal: Vec3,
+    /// Unit shading normal (interpolated vertex normals), in the hemisphere of `geometric_normal`.
+    pub shading_normal: Vec3,
+    pub uv: Vec2,
+    pub material: u32,
+    pub object: u32,
+    /// Triangle index within the object's mesh; [`NO_PRIM`] for spheres and planes.
+    pub prim: u32,
+}
+
+/// `SurfaceHit::prim` of surfaces that are not triangles.
+pub const NO_PRIM: u32 = u32::MAX;
+
+impl SurfaceHit {
+    /// A ray leaving the surface in direction `dir`, starting outside the error bound on the
+    /// side `dir` points to.
+    #[inline]
+    pub fn spawn_ray(&self, dir: Vec3) -> Ray {
+        Ray::new(offset_ray_origin(self.position, self.p_error, self.geometric_normal, dir), dir)
+    }
+
+    /// A shadow ray toward the point `target` (a point light: no surface there, so the segment
+    /// runs all the way to it): unit direction, `tmax` = the distance to the target.
+    #[inline]
+    pub fn spawn_ray_to(&self, target: Vec3) -> Ray {
+        let dir0 = target - self.position;
+        let origin = offset_ray_origin(self.position, self.p_error, self.geometric_normal, dir0);
+        let d = target - origin;
+        let dist = d.length();
+        Ray::segment(origin, d / dist, 0.0, dist)
+    }
+}
+
+impl World {
+    /// I_a for a surface with unit normal `n`: the scene's ambient colour, or with
+    /// `sky_ambient` that colour times the sky's irradiance over π (a uniform sky of radiance L
+    /// gives L).
+    #[inline]
+    pub fn ambient(&self, n: Vec3) -> Rgb {
+        match &self.sky_irradiance {
+            Some(sh) => self.scene.ambient * sh.irradiance(n) * std::f32::consts::FRAC_1_PI,
+            None => self.scene.ambient,
+        }
+    }
+
+    /// The surface colour at a hit: material colour × texture.
+    #[inline]
+    pub fn albedo(&self, hit: &SurfaceHit) -> Rgb {
+        let m = self.material(hit.material);
+        match m.texture {
+            Some(t) => m.colour * self.scene.textures[t].evaluate(hit.uv),
+            None => m.colour,
+        }
+    }
+
+    pub(super) fn surface_hit(&self, ray: &Ray, found: Found, t: f32) -> Option<SurfaceHit> {
+        match found {
+            Found::None => None,
+            Found::Plane(pi) => Some(self.plane_hit(&self.planes[pi], ray, t)),
+            Found::Instance { inst, prim, u, v } => {
+                Some(self.instance_hit(&self.instances[inst as usize], ray, t, prim, u, v))
+            }
+        }
+    }
+
+    fn plane_hit(&self, p: &Plane, ray: &Ray, t: f32) -> SurfaceHit {
+        let raw = ray.at(t);
+        // Project onto the plane: what remains is error along the normal only.
+        let position = raw - p.normal * (raw.dot(p.normal) + p.offset);
+        let p_error = Vec3::splat(gamma(6) * (position.abs().max_element() + p.offset.abs()));
+        SurfaceHit {
+            t,
+            position,
+            p_error,
+            geometric_normal: p.normal,
+            shading_normal: p.normal,
+            uv: Vec2::new(position.dot(p.u_axis), position.dot(p.v_axis)),
+            material: p.material,
+            object: p.object,
+            prim: NO_PRIM,
+        }
+    }
+
+    fn instance_hit(&self, inst: &Instance, ray: &Ray, t: f32, prim: u32, u: f32, v: f32) -> SurfaceHit {
+        let r = if inst.identity { *ray } else { transform_ray(&inst.object_from_world, ray) };
+        let (p_obj, err_obj, ng_obj, ns_obj, uv, material) = match inst.shape {
+            InstanceShape::Sphere { centre, radius } => {
+                let local = r.at(t) - centre;
+                let n = local.normalize_or(Vec3::Y);
+                let local = n * radius; // reproject onto the surface
+                let p = centre + local;
+                let err = gamma(5) * local.abs() + gamma(1) * p.abs();
+                // Spherical uv only when a texture will read it (atan2 and acos are not free).
+                let uv = if self.scene.materials[inst.material as usize].texture.is_some() {
+                    Vec2::new(
+                        0.5 + n.x.atan2(-n.z) / std::f32::consts::TAU,
+                        1.0 - n.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI,
+                    )
+                } else {
+                    Vec2::ZERO
+                };
+                (p, err, n, n, uv, inst.material)
+            }
+            InstanceShape::Mesh(m) => {
+                let mesh = &self.meshes[m];
+                let tri = mesh.triangles[prim as usize];
+                let [i0, i1, i2] = tri.map(|i| i as usize);
+                let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
+                let w = 1.0 - u - v;
+                let p = p0 * w + p1 * u + p2 * v;
+                let err = gamma(7) * ((p0 * w).abs() + (p1 * u).abs() + (p2 * v).abs());
+                let ng = (p1 - p0).cross(p2 - p0).normalize_or(Vec3::Y);
+                let ns = match &mesh.normals {
+                    Some(n) => {
+                        let s = (n[i0] * w + n[i1] * u + n[i2] * v).normalize_or(ng);
+                        if s.dot(ng) < 0.0 { -s } else { s }
+                    }
+                    None => ng,
+                };
+                let uv = match &mesh.uvs {
+                    Some(t) => t[i0] * w + t[i1] * u + t[i2] * v,
+                    None => Vec2::ZERO,
+                };
+                let material = match &mesh.triangle_materials {
+                    Some(ms) => ms[prim as usize],
+                    None => inst.material,
+                };
+                (p, err, ng, ns, uv, material)
+            }
+        };
+        let (position, p_error, ng, ns) = if inst.identity {
+            (p_obj, err_obj, ng_obj, ns_obj)
+        } else {
+            let m = &inst.world_from_object;
+            let abs_m = Mat3::from_cols(
+                Vec3::from(m.matrix3.x_axis).abs(),
+                Vec3::from(m.matrix3.y_axis).abs(),
+                Vec3::from(m.matrix3.z_axis).abs(),
+            );
+            let position = m.transform_point3(p_obj);
+            // pbrt's bound for transforming a point that already carries an error.
+            let p_error = (1.0 + gamma(3)) * (abs_m * err_obj)
+                + gamma(3) * (abs_m * p_obj.abs() + Vec3::from(m.translation).abs());
+            let ng = (inst.normal_from_object * ng_obj).normalize_or(Vec3::Y);
+            let ns = (inst.normal_from_object * ns_obj).normalize_or(ng);
+            (position, p_error, ng, ns)
+        };
+        let ns = if ns.dot(ng) < 0.0 { -ns } else { ns };
+        let prim = if matches!(inst.shape, InstanceShape::Mesh(_)) { prim } else { NO_PRIM };
+        SurfaceHit {
+            t,
+            position,
+            p_error,
+            geometric_normal: ng,
+            shading_normal: ns,
+            uv,
+            material,
+            object: inst.object,
+            prim,
+        }
+    }
+}

@@ -1,0 +1,143 @@
+//! Closest-hit queries (pipeline: integrators ask **World** what a ray hits): the sphere set,
+//! the top-level BVH with its instances' BVHs, and the planes, nearest wins. Equal distances
+//! resolve the same way in every kernel, so 8-ray queries equal single rays bit for bit.
+
+use super::World;
+use super::hit::SurfaceHit;
+use super::instances::{Found, InstanceShape, transform_ray};
+use glint_accel::{MeshBvh, primitives};
+use glint_core::Ray;
+
+impl World {
+    /// Closest hit along `ray` within `[ray.tmin, ray.tmax]`.
+    pub fn intersect(&self, ray: &Ray) -> Option<SurfaceHit> {
+        let (found, t) = self.closest(ray, false);
+        self.surface_hit(ray, found, t)
+    }
+
+    /// [`World::intersect`] of 8 rays: one packet query where [`World::traces_packets`] (the
+    /// same hits bit for bit; coherent rays, e.g. neighbouring pixels, gain), else ray by ray.
+    pub fn intersect8(&self, rays: &[Ray; 8], out: &mut [Option<SurfaceHit>; 8]) {
+        match self.lone_mesh() {
+            Some(bvh) => {
+                let mut hits = [None; 8];
+                bvh.intersect8(rays, &mut hits);
+                for ((o, h), r) in out.iter_mut().zip(hits).zip(rays) {
+                    *o = h.and_then(|h| {
+                        self.surface_hit(r, Found::Instance { inst: 0, prim: h.prim, u: h.u, v: h.v }, h.t)
+                    });
+                }
+            }
+            None => {
+                for (o, r) in out.iter_mut().zip(rays) {
+                    *o = self.intersect(r);
+                }
+            }
+        }
+    }
+
+    /// Distance to the closest hit, without computing shading data (traversal only: what the
+    /// ray benchmarks time).
+    pub fn hit_distance(&self, ray: &Ray) -> Option<f32> {
+        match self.closest(ray, false) {
+            (Found::None, _) => None,
+            (_, t) => Some(t),
+        }
+    }
+
+    /// The mesh BVH of a scene that is exactly one untransformed mesh instance (no planes, no
+    /// spheres): there the 8-ray queries take the packet path of [`MeshBvh::intersect8`].
+    pub(super) fn lone_mesh(&self) -> Option<&MeshBvh> {
+        match self.instances.as_slice() {
+            [inst] if inst.identity && self.planes.is_empty() => match inst.shape {
+                InstanceShape::Mesh(m) => self.blas.get(m),
+                InstanceShape::Sphere { .. } => None,
+            },
+            _ => None,
+        }
+    }
+
+    /// Whether [`World::hit_distance8`] and [`World::occluded8`] trace packets (true) or loop
+    /// over single rays.
+    pub fn traces_packets(&self) -> bool {
+        self.lone_mesh().is_some()
+    }
+
+    /// [`World::hit_distance`] of up to 8 rays (coherent ones, e.g. a 4×2 pixel tile, gain):
+    /// `out[i] == hit_distance(&rays[i])` bit for bit.
+    pub fn hit_distance8(&self, rays: &[Ray; 8], out: &mut [Option<f32>; 8]) {
+        match self.lone_mesh() {
+            Some(bvh) => {
+                let mut hits = [None; 8];
+                bvh.intersect8(rays, &mut hits);
+                for (o, h) in out.iter_mut().zip(hits) {
+                    *o = h.map(|h| h.t);
+                }
+            }
+            None => {
+                for (o, r) in out.iter_mut().zip(rays) {
+                    *o = self.hit_distance(r);
+                }
+            }
+        }
+    }
+
+    /// Closest hit; with `transparent_only`, instances and planes that are wholly opaque are
+    /// skipped (used after an any-hit query has ruled them out).
+    pub(super) fn closest(&self, ray: &Ray, transparent_only: bool) -> (Found, f32) {
+        let mut found = Found::None;
+        let mut tmax = ray.tmax;
+        if transparent_only {
+            // The rare path (transparent meshes in the scene): one sphere at a time.
+            for &i in &self.sphere_instances {
+                let inst = &self.instances[i as usize];
+                if let (false, InstanceShape::Sphere { centre, radius }) = (inst.opaque, inst.shape)
+                    && let Some(t) = primitives::intersect_sphere(&Ray { tmax, ..*ray }, centre, radius)
+                {
+                    found = Found::Instance { inst: i, prim: 0, u: 0.0, v: 0.0 };
+                    tmax = t;
+                }
+            }
+        } else if let Some((t, k)) = self.spheres.closest(ray) {
+            found = Found::Instance { inst: self.sphere_instances[k as usize], prim: 0, u: 0.0, v: 0.0 };
+            tmax = t;
+        }
+        let ray = &Ray { tmax, ..*ray };
+        let leaf = |i: u32, t_limit: f32| {
+            let inst = &self.instances[i as usize];
+            if transparent_only && inst.opaque {
+                return None;
+            }
+            let mut r = if inst.identity { *ray } else { transform_ray(&inst.object_from_world, ray) };
+            r.tmax = t_limit;
+            match inst.shape {
+                InstanceShape::Sphere { centre, radius } => {
+                    let t = primitives::intersect_sphere(&r, centre, radius)?;
+                    found = Found::Instance { inst: i, prim: 0, u: 0.0, v: 0.0 };
+                    tmax = t;
+                    Some(t)
+                }
+                InstanceShape::Mesh(m) => {
+                    let h = self.blas[m].intersect(&r)?;
+                    found = Found::Instance { inst: i, prim: h.prim, u: h.u, v: h.v };
+                    tmax = h.t;
+                    Some(h.t)
+                }
+            }
+        };
+        if self.tlas_used {
+            self.tlas.intersect(ray, leaf);
+        }
+        for (pi, p) in self.planes.iter().enumerate() {
+            if transparent_only && p.opaque {
+                continue;
+            }
+            let r = Ray { tmax, ..*ray };
+            if let Some(t) = primitives::intersect_plane(&r, p.normal, p.offset) {
+                tmax = t;
+                found = Found::Plane(pi);
+            }
+        }
+        (found, tmax)
+    }
+}

@@ -1,0 +1,254 @@
+//! World tests: packets equal single rays, animation equals a world built at that time.
+
+use super::*;
+use glint_accel::procedural::displaced_sphere;
+use glint_core::{Affine3A, Ray, Rgb, Vec2, Vec3};
+use glint_scene::{Camera, Fov, Object};
+
+fn scene(extra: Option<Shape>, world_from_object: Affine3A) -> Scene {
+    let m = displaced_sphere(5_000);
+    let mesh = Mesh { name: "ball".into(), positions: m.positions, triangles: m.triangles, ..Mesh::default() };
+    let mut objects = vec![Object { name: "ball".into(), shape: Shape::Mesh(0), material: 0, world_from_object }];
+    if let Some(shape) = extra {
+        objects.push(Object { name: "extra".into(), shape, material: 0, world_from_object: Affine3A::IDENTITY });
+    }
+    Scene {
+        camera: Camera { position: Vec3::new(0.0, 0.3, 3.0), forward: -Vec3::Z, up: Vec3::Y, fov: Fov::Vertical(50.0) },
+        materials: vec![Material::default()],
+        meshes: vec![Arc::new(mesh)],
+        objects,
+        ..Scene::default()
+    }
+}
+
+/// 8-ray queries equal the single-ray ones bit for bit, on the packet path (one mesh) and
+/// on the looping path (a plane or a transform in the scene), for primary tiles (distances
+/// and whole surface hits) and shadow rays.
+#[test]
+fn eight_ray_queries_equal_single_rays() {
+    let cases = [
+        (scene(None, Affine3A::IDENTITY), true),
+        (scene(Some(Shape::Plane { normal: Vec3::Y, offset: -0.9 }), Affine3A::IDENTITY), false),
+        (scene(None, Affine3A::from_translation(Vec3::new(0.1, 0.0, 0.0))), false),
+    ];
+    for (scene, packets) in cases {
+        scene.validate().expect("valid scene");
+        let world = World::new(scene);
+        assert_eq!(world.traces_packets(), packets);
+        let cam = world.scene().camera.rays(32, 16);
+        let light = Vec3::new(3.0, 4.0, 5.0);
+        for ty in (0..16).step_by(2) {
+            for tx in (0..32).step_by(4) {
+                let tile: [Ray; 8] =
+                    std::array::from_fn(|i| cam.ray(Vec2::new((tx + i % 4) as f32 + 0.5, (ty + i / 4) as f32 + 0.5)));
+                let mut dist = [None; 8];
+                world.hit_distance8(&tile, &mut dist);
+                let shadow: [Ray; 8] = std::array::from_fn(|i| match world.intersect(&tile[i]) {
+                    Some(h) => h.spawn_ray_to(light),
+                    None => Ray::new(Vec3::NAN, Vec3::Z),
+                });
+                let mut occ = [false; 8];
+                world.occluded8(&shadow, &mut occ);
+                let mut hits = [None; 8];
+                world.intersect8(&tile, &mut hits);
+                for i in 0..8 {
+                    // Debug prints each float's shortest round trip: equal text, equal bits.
+                    let hit = format!("{:?}", world.intersect(&tile[i]));
+                    assert_eq!(format!("{:?}", hits[i]), hit, "hit ({tx}, {ty}) lane {i}");
+                    let want = world.hit_distance(&tile[i]);
+                    assert_eq!(dist[i].map(f32::to_bits), want.map(f32::to_bits), "tile ({tx}, {ty}) lane {i}");
+                    assert_eq!(occ[i], world.occluded(&shadow[i]), "shadow ({tx}, {ty}) lane {i}");
+                }
+            }
+        }
+    }
+}
+
+use crate::whitted::{self, Samples};
+use crate::{Film, Hooks, ImageSettings, WhittedSettings};
+use glint_scene::{AnimationBase, AnimationTarget, Attenuation, Keyframes, Light, Motion, Repeat, Rotation};
+
+/// A whole Whitted frame (one ray per pixel, depth 4) of `size` seen by the scene's camera.
+fn frame(world: &World, (width, height): (u32, u32)) -> Film {
+    let settings = WhittedSettings { samples_per_side: 1, max_depth: 4, min_contribution: 1e-3 };
+    let mut film = Film::new(1, 1);
+    let image = ImageSettings::new(width, height);
+    whitted::render(world, &world.scene().camera, &image, &settings, Samples::Stratified, &Hooks::default(), &mut film)
+        .expect("valid settings");
+    film
+}
+
+fn colours(world: &World) -> Vec<[u32; 3]> {
+    frame(world, (48, 32)).pixels.iter().map(|p| p.colour.to_array().map(f32::to_bits)).collect()
+}
+
+fn spin(axis: Vec3, degrees_per_second: f32) -> Option<Rotation> {
+    Some(Rotation { axis, pivot: None, degrees_per_second, phase_deg: 0.0 })
+}
+
+fn keys(keys: Vec<(f32, Vec3)>, repeat: Repeat) -> Option<Keyframes> {
+    Some(Keyframes { keys, repeat })
+}
+
+/// A mesh turning about the vertical, a sphere bouncing (it starts untransformed, in the
+/// sphere set, and leaves it when it moves), a light circling, over a floor.
+fn animated_scene() -> Scene {
+    let mut s = scene(Some(Shape::Plane { normal: Vec3::Y, offset: 1.0 }), Affine3A::from_scale(Vec3::splat(0.6)));
+    s.objects.push(Object {
+        name: "ball".into(),
+        shape: Shape::Sphere { centre: Vec3::new(1.0, -0.5, 0.0), radius: 0.4 },
+        material: 0,
+        world_from_object: Affine3A::IDENTITY,
+    });
+    s.lights.push(Light::Point {
+        position: Vec3::new(2.0, 3.0, 2.0),
+        colour: Rgb::ONE,
+        intensity: 1.0,
+        attenuation: Attenuation::None,
+    });
+    s.sky = Sky::Colour(Rgb::new(0.2, 0.3, 0.5));
+    let turn = Motion { rotation: spin(Vec3::new(0.3, 1.0, 0.0), 40.0), translation: None };
+    s.animate(&[AnimationTarget::Object(0)], turn).expect("in range");
+    let bounce = keys(vec![(0.0, Vec3::ZERO), (1.0, Vec3::new(0.0, 1.2, 0.0))], Repeat::PingPong);
+    s.animate(&[AnimationTarget::Object(2)], Motion { rotation: None, translation: bounce }).expect("in range");
+    let circle = Rotation { pivot: Some(Vec3::ZERO), ..spin(Vec3::Y, 90.0).expect("some") };
+    s.animate(&[AnimationTarget::Light(0)], Motion { rotation: Some(circle), translation: None }).expect("in range");
+    s.set_time(0.0);
+    s.validate().expect("valid animated scene");
+    s
+}
+
+/// The scene at `t` placed by hand from the animations' rest states, not by `set_time`.
+fn placed_directly(mut s: Scene, t: f32) -> Scene {
+    for a in s.animations.clone() {
+        let m = a.motion.transform_at(t, a.pivot);
+        match (a.target, a.base) {
+            (AnimationTarget::Object(i), AnimationBase::Object { world_from_object, .. }) => {
+                s.objects[i].world_from_object = m * world_from_object;
+            }
+            (AnimationTarget::Light(i), AnimationBase::Light(Light::Point { position, .. })) => {
+                let Light::Point { position: p, .. } = &mut s.lights[i] else { panic!("a point light") };
+                *p = m.transform_point3(position);
+            }
+            _ => panic!("no other kinds here"),
+        }
+    }
+    s
+}
+
+/// `set_time` moves instances and lights to exactly where a world built afresh at that time
+/// has them: the same hits and bit-identical renders; back at 0 the first image returns.
+#[test]
+fn set_time_equals_a_world_built_at_that_time() {
+    let scene = animated_scene();
+    let mut world = World::new(scene.clone());
+    let first = colours(&world);
+    let unanimated = World::new(Scene { animations: Vec::new(), ..scene.clone() });
+    assert_eq!(colours(&unanimated), first, "animations at rest change nothing");
+    let blas_before: Vec<usize> = world.blas.iter().map(|b| b.stats().node_bytes).collect();
+    for t in [0.35, 1.3, 2.75] {
+        assert!(world.set_time(t), "t = {t}: something moved");
+        let fresh = World::new(placed_directly(scene.clone(), t));
+        assert_eq!(world.scene().objects, fresh.scene().objects, "t = {t}");
+        assert_eq!(world.scene().lights, fresh.scene().lights, "t = {t}");
+        // The kept bounds follow the moves (the path mode's depth scale reads them).
+        assert_eq!(world.bounds(), fresh.bounds(), "t = {t}");
+        assert_eq!(world.bounds(), world.scene().bounds(), "t = {t}");
+        let cam = world.scene().camera.rays(24, 16);
+        for y in 0..16 {
+            for x in 0..24 {
+                let ray = cam.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+                let (a, b) = (world.intersect(&ray), fresh.intersect(&ray));
+                let key = |h: Option<SurfaceHit>| h.map(|h| (h.t.to_bits(), h.object, h.prim, h.position.to_array()));
+                assert_eq!(key(a), key(b), "t = {t}, pixel ({x}, {y})");
+            }
+        }
+        let image = colours(&world);
+        assert_eq!(image, colours(&fresh), "t = {t}");
+        assert_ne!(image, first, "t = {t}: the picture changed");
+    }
+    assert_eq!(blas_before, world.blas.iter().map(|b| b.stats().node_bytes).collect::<Vec<_>>());
+    assert!(world.set_time(0.0));
+    assert_eq!(colours(&world), first, "back at t = 0");
+    assert!(!world.set_time(0.0), "nothing moves from 0 to 0");
+}
+
+/// A light moving sideways moves the shadow of a ball on the floor (Whitted reads the
+/// scene's lights at every render).
+#[test]
+fn a_moving_light_moves_the_shadow() {
+    let matte = Material { ambient: 0.0, diffuse: 1.0, specular: 0.0, ..Material::default() };
+    let mut s = Scene {
+        camera: Camera {
+            position: Vec3::new(0.0, 3.0, 6.0),
+            forward: Vec3::new(0.0, -3.0, -6.0),
+            up: Vec3::Y,
+            fov: Fov::Vertical(40.0),
+        },
+        sky: Sky::Colour(Rgb::ZERO),
+        materials: vec![matte],
+        objects: vec![
+            Object {
+                name: "floor".into(),
+                shape: Shape::Plane { normal: Vec3::Y, offset: 0.0 },
+                material: 0,
+                world_from_object: Affine3A::IDENTITY,
+            },
+            Object {
+                name: "ball".into(),
+                shape: Shape::Sphere { centre: Vec3::Y, radius: 0.5 },
+                material: 0,
+                world_from_object: Affine3A::IDENTITY,
+            },
+        ],
+        lights: vec![Light::Point {
+            position: Vec3::new(0.0, 5.0, 0.0),
+            colour: Rgb::ONE,
+            intensity: 1.0,
+            attenuation: Attenuation::None,
+        }],
+        ..Scene::default()
+    };
+    let slide = keys(vec![(0.0, Vec3::ZERO), (1.0, Vec3::new(4.0, 0.0, 0.0))], Repeat::Hold);
+    s.animate(&[AnimationTarget::Light(0)], Motion { rotation: None, translation: slide }).expect("in range");
+    s.validate().expect("valid");
+    let mut world = World::new(s);
+    let centre = |w: &World| frame(w, (33, 33)).pixel(16, 16).colour;
+    let lit = |w: &World, p: Vec3| {
+        let light = w.scene().lights[0].position().expect("a point light");
+        let hit = w.intersect(&Ray::new(p + Vec3::Y, -Vec3::Y)).expect("the floor");
+        w.transmittance(&hit.spawn_ray_to(light)).x > 0.0
+    };
+    let aside = Vec3::new(-1.25, 0.0, 0.0);
+    assert_eq!(centre(&world), Rgb::ZERO, "under the ball: in its shadow");
+    assert!(lit(&world, aside));
+    assert!(world.set_time(1.0));
+    assert_eq!(world.scene().lights[0].position(), Some(Vec3::new(4.0, 5.0, 0.0)));
+    assert!(centre(&world).x > 0.1, "the shadow has moved away");
+    assert!(!lit(&world, aside), "and fallen here");
+    assert!(!world.set_time(2.0), "held at the last key");
+}
+
+/// An animated plane moves its equation: turned a quarter about Z it becomes x = 0, and
+/// keyframes lift it.
+#[test]
+fn an_animated_plane_turns_and_rises() {
+    let mut s = scene(
+        Some(Shape::Plane { normal: Vec3::Y, offset: 0.0 }),
+        Affine3A::from_translation(Vec3::new(0.0, 0.0, -50.0)),
+    );
+    let rise = keys(vec![(0.0, Vec3::ZERO), (1.0, Vec3::new(0.0, 1.0, 0.0))], Repeat::Hold);
+    s.animate(&[AnimationTarget::Object(1)], Motion { rotation: None, translation: rise }).expect("in range");
+    let mut world = World::new(s.clone());
+    let down = Ray::new(Vec3::new(0.0, 3.0, 0.0), -Vec3::Y);
+    assert_eq!(world.intersect(&down).map(|h| h.t), Some(3.0));
+    assert!(world.set_time(1.0));
+    assert_eq!(world.intersect(&down).map(|h| h.t), Some(2.0));
+    s.animations.clear();
+    let quarter = Rotation { pivot: Some(Vec3::ZERO), ..spin(Vec3::Z, 90.0).expect("some") };
+    s.animate(&[AnimationTarget::Object(1)], Motion { rotation: Some(quarter), translation: None }).expect("in range");
+    let mut world = World::new(s);
+    assert!(world.set_time(1.0));
+    let hit = world.intersect(&Ray::new(Vec3::new(3.0, 0.5, 0.0), -Vec3::X)).expect("the plane x = 0");
+    assert!((hit.t - 3.0).abs() < 1e-5 && (hit.geometric_normal - (-Vec3::X)).length() < 1e-6, "{hit:?}");
+}
