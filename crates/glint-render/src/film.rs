@@ -51,6 +51,7 @@ pub struct Film {
 }
 
 impl Film {
+    #[must_use]
     pub fn new(width: u32, height: u32) -> Self {
         Self { width, height, pixels: vec![FilmPixel::default(); width as usize * height as usize], path_aovs: false }
     }
@@ -76,11 +77,13 @@ impl Film {
         }
     }
 
+    #[must_use]
     pub fn pixel(&self, x: u32, y: u32) -> &FilmPixel {
         &self.pixels[y as usize * self.width as usize + x as usize]
     }
 
     /// Beauty only, as channels R, G, B (and A = coverage when `alpha`).
+    #[must_use]
     pub fn beauty_image(&self, alpha: bool) -> Image {
         let mut img = Image::new(self.width, self.height);
         let chans: [ChannelReader; 3] = [("R", |p| p.colour.x), ("G", |p| p.colour.y), ("B", |p| p.colour.z)];
@@ -99,6 +102,7 @@ impl Film {
     /// Beauty and every AOV as named channels (EXR names: pbrt-v4's where it has them):
     /// R G B A, Albedo.R/G/B, Ns.X/Y/Z, Z, and in path mode Direct.R/G/B, Indirect.R/G/B,
     /// SampleCount (docs/aovs.md).
+    #[must_use]
     pub fn aov_image(&self) -> Image {
         let mut img = self.beauty_image(true);
         let chans: [ChannelReader; 7] = [

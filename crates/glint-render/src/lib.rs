@@ -8,6 +8,7 @@
 //! [`FrameStats`] out. Mode-specific names live in their module (`path::PathSettings`,
 //! `points::PointSettings`, ...); each public name has one path.
 #![forbid(unsafe_code)]
+#![warn(clippy::must_use_candidate, clippy::missing_errors_doc, clippy::missing_panics_doc)]
 
 mod bands;
 mod error;

@@ -200,6 +200,7 @@ impl Bsdf {
     }
 
     /// Solid-angle pdf of [`Bsdf::sample_non_delta`].
+    #[cfg(test)]
     pub fn pdf_non_delta(&self, wi: Vec3) -> f32 {
         let nd = self.p_non_delta();
         if nd <= 0.0 { 0.0 } else { self.pdf(wi) / nd }

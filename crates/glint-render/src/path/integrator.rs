@@ -126,22 +126,9 @@ impl<'a> Integrator<'a> {
         (Bsdf::new(m, albedo, wo, ns, ng, entering), m.emission)
     }
 
-    /// Trace one camera sample. `cone` is the primary ray's footprint for sky filtering;
-    /// `depth_of` gives the camera depth of a world point.
-    pub fn camera_sample(
-        &mut self,
-        primary: Ray,
-        cone: f32,
-        depth_of: impl Fn(Vec3) -> f32,
-        stream: &mut SampleStream,
-        mode: IndirectMode,
-    ) -> CameraSample {
-        let first = self.world.intersect(&primary);
-        self.camera_sample_from(primary, first, cone, depth_of, stream, mode)
-    }
-
-    /// [`Integrator::camera_sample`] given the primary ray's closest hit `first` (found by a
-    /// packet query: the same hit bit for bit).
+    /// Trace one camera sample whose primary ray's closest hit is `first` (found by a single
+    /// or a packet query: the same hit bit for bit). `cone` is the primary ray's footprint for
+    /// sky filtering; `depth_of` gives the camera depth of a world point.
     pub fn camera_sample_from(
         &mut self,
         primary: Ray,

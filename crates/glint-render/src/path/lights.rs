@@ -122,10 +122,6 @@ impl LightSet {
         LightSet { entries, cdf, triangles, areas, triangle_entry, sky, sky_entry, delta_lights, each_delta }
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.entries.is_empty() && self.each_delta().is_empty()
-    }
-
     /// The delta lights sampled at every shading point (empty when they are in the choice).
     pub fn each_delta(&self) -> &[Light] {
         if self.each_delta { &self.delta_lights } else { &[] }
@@ -229,4 +225,80 @@ impl LightSet {
 pub fn power_heuristic(a: f32, b: f32) -> f32 {
     let (a2, b2) = (a * a, b * b);
     if a2 + b2 <= 0.0 { 0.0 } else { a2 / (a2 + b2) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glint_core::chi2::chi2_sphere;
+    use glint_core::random::SampleStream;
+    use glint_core::{Affine3A, Rgb, Vec3};
+    use glint_scene::{Material, Object, Scene, Shape, Sky};
+    use std::sync::Arc;
+
+    fn object(shape: Shape, material: usize) -> Object {
+        Object { name: "o".into(), shape, material, world_from_object: Affine3A::IDENTITY }
+    }
+
+    /// Light sampling draws directions with the density it reports: an emissive quad above a
+    /// point, under a non-uniform sky.
+    #[test]
+    fn light_sampling_matches_its_pdf() {
+        let gradient = Sky::Gradient { zenith: Rgb::new(0.2, 0.3, 0.9), horizon: Rgb::ONE, ground: Rgb::splat(0.1) };
+        check_light_sampling(Sky::Colour(Rgb::ZERO), 4.0);
+        check_light_sampling(gradient.clone(), 0.0);
+        check_light_sampling(gradient, 4.0);
+    }
+
+    fn check_light_sampling(sky: Sky, emission: f32) {
+        let quad = glint_scene::Mesh {
+            name: "light".into(),
+            positions: vec![
+                Vec3::new(-0.5, 1.0, -0.3),
+                Vec3::new(0.6, 1.0, -0.4),
+                Vec3::new(0.5, 1.2, 0.5),
+                Vec3::new(-0.4, 0.9, 0.4),
+            ],
+            normals: None,
+            uvs: None,
+            triangles: vec![[0, 1, 2], [0, 2, 3]],
+            triangle_materials: None,
+        };
+        let scene = Scene {
+            sky,
+            materials: vec![
+                Material { emission: Rgb::new(1.0, 0.75, 0.5) * emission, ..Material::default() },
+                Material::default(),
+            ],
+            meshes: vec![Arc::new(quad)],
+            objects: vec![
+                object(Shape::Mesh(0), 0),
+                // A tiny sphere to shade at.
+                object(Shape::Sphere { centre: Vec3::ZERO, radius: 1e-3 }, 1),
+            ],
+            ..Scene::default()
+        };
+        let world = World::new(scene);
+        let lights = LightSet::new(&world);
+        let probe = glint_core::Ray::new(Vec3::new(0.0, 0.0, 5.0), Vec3::new(0.0, 0.0, -1.0));
+        let hit = world.intersect(&probe).expect("the probe sphere");
+        let n = 400_000;
+        let mut dirs = Vec::new();
+        for i in 0..n {
+            let mut s = SampleStream::new(i, 0, 1);
+            if let Some(ls) = lights.sample(&world, &hit, s.next_1d(), s.next_2d()) {
+                dirs.push(ls.wi);
+            }
+        }
+        let from = hit.position;
+        let pdf = |d: Vec3| -> f64 {
+            let ray = glint_core::Ray::new(from + d * 1e-2, d);
+            // The sky is sampled whatever lies in front of it, so both densities add up where
+            // the quad hides the sky.
+            let surface = world.intersect(&ray).and_then(|h| lights.pdf_surface(from, d, &h)).unwrap_or(0.0);
+            (surface + lights.pdf_sky(&world, d).unwrap_or(0.0)) as f64
+        };
+        let out = chi2_sphere(&dirs, n as usize, pdf, 24, 48);
+        assert!(out.p_value > 0.01 / 3.0, "emission {emission}: {out:?}");
+    }
 }

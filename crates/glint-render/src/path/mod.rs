@@ -17,11 +17,11 @@
 //! Every random number is `hash(pixel, sample, dimension, seed)`: the image does not depend on
 //! the thread count.
 
-pub mod bsdf;
-pub mod integrator;
-pub mod lights;
-pub mod lookup;
-pub mod progressive;
+mod bsdf;
+mod integrator;
+mod lights;
+mod lookup;
+mod progressive;
 
 use crate::bands::{self, Hooks};
 use crate::film::{Film, FilmPixel};

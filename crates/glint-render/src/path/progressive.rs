@@ -64,6 +64,7 @@ pub struct PathAccumulator {
 }
 
 impl PathAccumulator {
+    #[must_use]
     pub fn new() -> Self {
         Self::default()
     }
@@ -74,11 +75,13 @@ impl PathAccumulator {
     }
 
     /// Passes accumulated since the last reset.
+    #[must_use]
     pub fn passes(&self) -> u32 {
         self.passes
     }
 
     /// Samples per pixel accumulated since the last reset.
+    #[must_use]
     pub fn samples_per_pixel(&self) -> u32 {
         self.sums.first().map_or(0, |s| if self.passes == 0 { 0 } else { s.samples })
     }
@@ -195,6 +198,9 @@ impl PathAccumulator {
     /// The image so far of the world's scene: filtered as `filter` says (see the module
     /// comment), into `film` (resized). Returns the time the filter took. Nothing accumulated:
     /// an empty film.
+    ///
+    /// # Errors
+    /// [`RenderError::Filter`] when the filter refuses its input.
     pub fn resolve(&mut self, world: &World, filter: &Filter, film: &mut Film) -> Result<Duration, RenderError> {
         let (w, h) = (self.width as usize, self.height as usize);
         if film.width != self.width || film.height != self.height {

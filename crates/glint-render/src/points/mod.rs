@@ -21,9 +21,12 @@ mod shade;
 mod tests;
 mod view;
 
-pub use prepared::{MAX_POINTS, PreparedPoints};
-pub use pyramid::{Level, Texel, ellipse_contains, interpolate, pull_texel, push_texel};
-pub use view::View;
+pub use prepared::MAX_POINTS;
+use prepared::PreparedPoints;
+#[cfg(test)]
+use pyramid::Level;
+use pyramid::Texel;
+use view::View;
 
 use crate::settings::ImageSettings;
 use crate::{Film, FilmPixel, RenderError};
@@ -129,6 +132,7 @@ pub struct PointStats {
 }
 
 impl PointStats {
+    #[must_use]
     pub fn points_per_second(&self) -> f64 {
         self.points as f64 / (self.total_ms * 1e-3)
     }
@@ -162,11 +166,13 @@ impl PointFrame {
     }
 
     /// Fraction of pixels covered by a surface.
+    #[must_use]
     pub fn coverage(&self) -> f64 {
         self.depth.iter().filter(|d| d.is_finite()).count() as f64 / self.depth.len().max(1) as f64
     }
 
     /// The frame as a film: beauty, and the AOVs (normal, depth, albedo, coverage = alpha).
+    #[must_use]
     pub fn to_film(&self) -> Film {
         let mut film = Film::new(1, 1);
         self.write_film(&mut film);
@@ -211,6 +217,9 @@ pub struct PointRenderer {
 
 impl PointRenderer {
     /// Lay out the scene's clouds for drawing (Morton order, packed normals).
+    ///
+    /// # Errors
+    /// [`RenderError::InvalidSetting`] when the clouds hold more than [`MAX_POINTS`] points.
     pub fn new(scene: &Scene) -> Result<Self, RenderError> {
         let points = PreparedPoints::new(scene)?;
         Ok(Self {
@@ -224,11 +233,11 @@ impl PointRenderer {
         })
     }
 
-    pub fn points(&self) -> &PreparedPoints {
-        &self.points
-    }
-
     /// Draw the clouds of `scene` (the one this renderer was made from) seen by `camera`.
+    ///
+    /// # Errors
+    /// [`RenderError::InvalidSetting`] for settings outside their limits or an image too
+    /// large for the points mode's buffers.
     pub fn render(
         &mut self,
         scene: &Scene,
@@ -402,7 +411,7 @@ impl PointRenderer {
                     };
                     if t.is_valid() {
                         depth[x] = t.depth;
-                        normal[x] = view.to_world(t.normal).normalize_or(-view.forward);
+                        normal[x] = view.world_from_camera(t.normal).normalize_or(-view.forward);
                         albedo[x] = t.colour;
                         material[x] = t.material;
                     } else {
@@ -454,8 +463,9 @@ impl PointRenderer {
         );
     }
 
-    /// The pyramid levels above level 0 after the last frame (for tests and figures).
-    pub fn levels(&self) -> &[pyramid::Level] {
+    /// The pyramid levels above level 0 after the last frame.
+    #[cfg(test)]
+    pub(crate) fn levels(&self) -> &[Level] {
         &self.levels
     }
 }

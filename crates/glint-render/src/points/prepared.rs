@@ -125,12 +125,9 @@ impl PreparedPoints {
         Ok(out)
     }
 
+    #[allow(clippy::len_without_is_empty)] // internal: only the count is asked for
     pub fn len(&self) -> usize {
         self.stream.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.stream.is_empty()
     }
 }
 

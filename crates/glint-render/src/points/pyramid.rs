@@ -291,16 +291,11 @@ impl<'a> CoarseRows<'a> {
 }
 
 /// The renormalised 9/3/3/1 interpolation of fine texel (x, y) from `coarse` (§3.3): `None`
-/// when no coarse texel contributes.
+/// when no coarse texel contributes. (The renderer interpolates row by row through
+/// `CoarseRows`; this is the per-texel form the tests check against the paper.)
+#[cfg(test)]
 pub fn interpolate(coarse: &Level, x: i64, y: i64, ellipses: bool) -> Option<Texel> {
     CoarseRows::new(coarse, y).interpolate(x, y, ellipses)
-}
-
-/// Push (§3.3) for one fine texel: its own value unless it is invalid or occluded (valid, but
-/// entirely behind its parent's depth interval); then the interpolation, if anything
-/// contributes; otherwise its own value again.
-pub fn push_texel(coarse: &Level, x: i64, y: i64, own: Texel, ellipses: bool) -> Texel {
-    CoarseRows::new(coarse, y).push(x, y, &own, ellipses).unwrap_or(own)
 }
 
 /// Push `coarse` into `fine` in place, row-parallel.

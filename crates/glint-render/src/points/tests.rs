@@ -1,6 +1,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use super::project::{EMPTY, pixel_of};
+use super::pyramid::{Level, ellipse_contains, interpolate};
 use super::*;
 use glint_core::{Affine3A, Vec3};
 use glint_scene::{CloudObject, Fov, Light, Material, Orientation, PointCloud, Sky};

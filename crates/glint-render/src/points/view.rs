@@ -71,7 +71,7 @@ impl View {
 
     /// World vector of a camera-space vector.
     #[inline]
-    pub fn to_world(&self, v: Vec3) -> Vec3 {
+    pub fn world_from_camera(&self, v: Vec3) -> Vec3 {
         self.right * v.x + self.down * v.y + self.forward * v.z
     }
 }

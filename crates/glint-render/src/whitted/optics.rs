@@ -4,6 +4,7 @@ use glint_core::Vec3;
 
 /// `R = I − 2 N (N·I)`, for an incident direction `i` travelling toward the surface.
 #[inline]
+#[must_use]
 pub fn reflect(i: Vec3, n: Vec3) -> Vec3 {
     i - n * (2.0 * n.dot(i))
 }
@@ -12,6 +13,7 @@ pub fn reflect(i: Vec3, n: Vec3) -> Vec3 {
 /// with unit normal `n` on the incident side, `eta = n1 / n2`. `None` on total internal
 /// reflection (`k < 0`).
 #[inline]
+#[must_use]
 pub fn refract(i: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
     let cos_i = -n.dot(i);
     let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
@@ -24,6 +26,7 @@ pub fn refract(i: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
 /// Exact unpolarised Fresnel reflectance of a dielectric interface, light arriving from the
 /// medium of index `eta_i` at cosine `cos_i` (≥ 0) into `eta_t`. 1 under total internal reflection.
 #[inline]
+#[must_use]
 pub fn fresnel_dielectric(cos_i: f32, eta_i: f32, eta_t: f32) -> f32 {
     let cos_i = cos_i.clamp(0.0, 1.0);
     let sin_t = eta_i / eta_t * (1.0 - cos_i * cos_i).max(0.0).sqrt();

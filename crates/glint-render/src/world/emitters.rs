@@ -17,6 +17,7 @@ pub struct EmissiveTriangle {
 impl World {
     /// Every triangle whose material emits light, in world space, with its object and
     /// triangle index (the path tracer's area lights).
+    #[must_use]
     pub fn emissive_triangles(&self) -> Vec<EmissiveTriangle> {
         let mut out = Vec::new();
         for inst in &self.instances {
@@ -39,6 +40,7 @@ impl World {
     }
 
     /// Every triangle of the world in world space (for the Embree comparison dumps).
+    #[must_use]
     pub fn world_triangles(&self) -> Vec<[Vec3; 3]> {
         let mut out = Vec::new();
         for inst in &self.instances {

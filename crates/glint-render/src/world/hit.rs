@@ -34,6 +34,7 @@ impl SurfaceHit {
     /// A ray leaving the surface in direction `dir`, starting outside the error bound on the
     /// side `dir` points to.
     #[inline]
+    #[must_use]
     pub fn spawn_ray(&self, dir: Vec3) -> Ray {
         Ray::new(offset_ray_origin(self.position, self.p_error, self.geometric_normal, dir), dir)
     }
@@ -41,6 +42,7 @@ impl SurfaceHit {
     /// A shadow ray toward the point `target` (a point light: no surface there, so the segment
     /// runs all the way to it): unit direction, `tmax` = the distance to the target.
     #[inline]
+    #[must_use]
     pub fn spawn_ray_to(&self, target: Vec3) -> Ray {
         let dir0 = target - self.position;
         let origin = offset_ray_origin(self.position, self.p_error, self.geometric_normal, dir0);
@@ -55,6 +57,7 @@ impl World {
     /// `sky_ambient` that colour times the sky's irradiance over π (a uniform sky of radiance L
     /// gives L).
     #[inline]
+    #[must_use]
     pub fn ambient(&self, n: Vec3) -> Rgb {
         match &self.sky_irradiance {
             Some(sh) => self.scene.ambient * sh.irradiance(n) * std::f32::consts::FRAC_1_PI,
@@ -64,6 +67,7 @@ impl World {
 
     /// The surface colour at a hit: material colour × texture.
     #[inline]
+    #[must_use]
     pub fn albedo(&self, hit: &SurfaceHit) -> Rgb {
         let m = self.material(hit.material);
         match m.texture {

@@ -10,6 +10,7 @@ use glint_core::Ray;
 
 impl World {
     /// Closest hit along `ray` within `[ray.tmin, ray.tmax]`.
+    #[must_use]
     pub fn intersect(&self, ray: &Ray) -> Option<SurfaceHit> {
         let (found, t) = self.closest(ray, false);
         self.surface_hit(ray, found, t)
@@ -38,6 +39,7 @@ impl World {
 
     /// Distance to the closest hit, without computing shading data (traversal only: what the
     /// ray benchmarks time).
+    #[must_use]
     pub fn hit_distance(&self, ray: &Ray) -> Option<f32> {
         match self.closest(ray, false) {
             (Found::None, _) => None,
@@ -59,6 +61,7 @@ impl World {
 
     /// Whether [`World::hit_distance8`] and [`World::occluded8`] trace packets (true) or loop
     /// over single rays.
+    #[must_use]
     pub fn traces_packets(&self) -> bool {
         self.lone_mesh().is_some()
     }

@@ -152,6 +152,7 @@ impl World {
 
     /// `scene.bounds()` as of the last change through this world's methods, kept so that a
     /// frame does not walk every mesh vertex (the path mode reads it per frame).
+    #[must_use]
     pub fn bounds(&self) -> Bounds3 {
         self.bounds
     }
@@ -162,16 +163,19 @@ impl World {
         &self.scene
     }
 
+    #[must_use]
     pub fn sky(&self) -> &Sky {
         &self.scene.sky
     }
 
     /// Curvature of object `object` (see the field); 0 for unknown objects.
     #[inline]
+    #[must_use]
     pub fn curvature(&self, object: u32) -> f32 {
         self.curvature.get(object as usize).copied().unwrap_or(0.0)
     }
 
+    #[must_use]
     pub fn material(&self, index: u32) -> &Material {
         &self.scene.materials[index as usize]
     }

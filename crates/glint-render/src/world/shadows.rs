@@ -22,6 +22,7 @@ impl World {
     }
 
     /// True when anything blocks `ray` within its interval (opaque or not).
+    #[must_use]
     pub fn occluded(&self, ray: &Ray) -> bool {
         self.occluded_filtered(ray, false)
     }
@@ -57,6 +58,7 @@ impl World {
 
     /// Fraction of light that passes along a shadow ray: 0 behind an opaque object, reduced by
     /// each transparent surface it crosses ("reduced according to the degree of transparency").
+    #[must_use]
     pub fn transmittance(&self, ray: &Ray) -> Rgb {
         if !self.any_transparent {
             return if self.occluded(ray) { Rgb::ZERO } else { Rgb::ONE };
