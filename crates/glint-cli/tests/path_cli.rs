@@ -165,31 +165,7 @@ fn the_paper_benchmarks_run() {
     let o = glint(&["bench", "filters", "--data", data, "--width", "48", "--height", "32", "--reps", "1"], &dir);
     // Sponza is the filters' input; without it the command says which file is missing.
     assert!(o.status.success() || stderr(&o).contains("sponza"), "{}", stderr(&o));
-    let o = glint(
-        &[
-            "bench",
-            "gi",
-            "--data",
-            data,
-            "--scenes",
-            "cornell-box",
-            "--width",
-            "32",
-            "--height",
-            "24",
-            "--reps",
-            "1",
-            "--quality-width",
-            "32",
-            "--quality-height",
-            "24",
-            "--ref-spp",
-            "4",
-            "--out",
-            "gi",
-        ],
-        &dir,
-    );
+    let o = glint(&common::bench_gi_tiny(data), &dir);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("Table 1") && out.contains("Figure 8") && out.contains("guided+area"), "{out}");

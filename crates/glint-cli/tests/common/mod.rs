@@ -20,6 +20,16 @@ pub fn scratch(name: &str) -> PathBuf {
     glint_testkit::scratch(&format!("cli-{name}"))
 }
 
+/// `glint bench gi` on tiny settings: the Cornell box at 32×24, one rep, a 4-spp reference in
+/// `gi/` (the real run is BENCHMARKS.md §6).
+pub fn bench_gi_tiny(data: &str) -> Vec<&str> {
+    let sizes = ["--width", "32", "--height", "24", "--quality-width", "32", "--quality-height", "24"];
+    let mut args = vec!["bench", "gi", "--data", data, "--scenes", "cornell-box", "--reps", "1"];
+    args.extend(sizes);
+    args.extend(["--ref-spp", "4", "--out", "gi"]);
+    args
+}
+
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
