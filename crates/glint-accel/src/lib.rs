@@ -3,6 +3,8 @@
 //! Pipeline position: glint-core's rays and boxes in, hits (distance, primitive, barycentrics)
 //! out. Knows nothing about materials, scenes or files; depends only on glint-core and rayon.
 //!
+//! - [`batch`]: eight rays at once (structure of arrays, active-lane masks): spheres and
+//!   planes across lanes, meshes through [`MeshBvh::intersect_batch`] / `occluded_batch`.
 //! - [`primitives`]: ray/triangle (watertight, Woop et al. 2013), ray/sphere, ray/plane tests.
 //! - [`build`]: the binned SAH builder producing the canonical binary [`Bvh2`].
 //! - [`wide`]: the binary tree collapsed into 4- or 8-wide nodes with SoA child boxes and
@@ -14,6 +16,7 @@
 //! `unsafe` is confined to the SIMD kernels (loads from fixed-size arrays, calls of
 //! `#[target_feature]` functions after runtime detection), each block with a `// SAFETY:` note.
 
+pub mod batch;
 pub mod build;
 pub mod bvh2;
 mod mesh;

@@ -27,4 +27,4 @@ pub use film::{Film, FilmPixel};
 pub use frame::{Mode, ModeSettings, Picture, Renderer};
 pub use settings::{ImageSettings, WhittedSettings};
 pub use stats::{BandStats, FrameStats, RayCounts};
-pub use world::{EmissiveTriangle, NO_PRIM, SurfaceHit, World, WorldStats};
+pub use world::{EmissiveTriangle, NO_PRIM, SurfaceHit, Surfaces8, World, WorldStats};

@@ -107,7 +107,9 @@ impl World {
     }
 
     fn rebuild_top_level(&mut self) {
-        (self.tlas, self.tlas_used, self.spheres, self.sphere_instances) = top_level(&self.instances, &self.blas);
+        let top = top_level(&self.instances, &self.blas);
+        (self.tlas, self.tlas_used, self.spheres) = (top.tlas, top.used, top.spheres);
+        (self.sphere_instances, self.top_members) = (top.sphere_instances, top.members);
         self.bounds = self.scene.bounds();
     }
 }

@@ -86,7 +86,7 @@ impl World {
         }
     }
 
-    fn plane_hit(&self, p: &Plane, ray: &Ray, t: f32) -> SurfaceHit {
+    pub(super) fn plane_hit(&self, p: &Plane, ray: &Ray, t: f32) -> SurfaceHit {
         let raw = ray.at(t);
         // Project onto the plane: what remains is error along the normal only.
         let position = raw - p.normal * (raw.dot(p.normal) + p.offset);
@@ -104,7 +104,7 @@ impl World {
         }
     }
 
-    fn instance_hit(&self, inst: &Instance, ray: &Ray, t: f32, prim: u32, u: f32, v: f32) -> SurfaceHit {
+    pub(super) fn instance_hit(&self, inst: &Instance, ray: &Ray, t: f32, prim: u32, u: f32, v: f32) -> SurfaceHit {
         let r = if inst.identity { *ray } else { transform_ray(&inst.object_from_world, ray) };
         let (p_obj, err_obj, ng_obj, ns_obj, uv, material) = match inst.shape {
             InstanceShape::Sphere { centre, radius } => {

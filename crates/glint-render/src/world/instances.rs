@@ -93,8 +93,22 @@ pub(super) fn object_curvature(o: &Object) -> f32 {
     }
 }
 
+/// The top level: the sphere set and the BVH over every other instance.
+pub(super) struct TopLevel {
+    pub tlas: Tlas,
+    /// Whether the TLAS holds any instance (not when every instance is in the sphere set):
+    /// an empty one is not visited at all.
+    pub used: bool,
+    pub spheres: SphereSet,
+    /// Instance index of each member of `spheres`.
+    pub sphere_instances: Vec<u32>,
+    /// The TLAS's members with their world boxes, in instance order (the batch queries test
+    /// them flat).
+    pub members: Vec<(u32, Bounds3)>,
+}
+
 /// Split the instances between the sphere set and the top-level BVH.
-pub(super) fn top_level(instances: &[Instance], blas: &[MeshBvh]) -> (Tlas, bool, SphereSet, Vec<u32>) {
+pub(super) fn top_level(instances: &[Instance], blas: &[MeshBvh]) -> TopLevel {
     let in_set = |inst: &Instance| inst.identity && matches!(inst.shape, InstanceShape::Sphere { .. });
     let count = instances.iter().filter(|i| in_set(i)).count();
     let use_set = count <= SPHERE_SET_LIMIT;
@@ -112,8 +126,15 @@ pub(super) fn top_level(instances: &[Instance], blas: &[MeshBvh]) -> (Tlas, bool
             _ => instance_bounds(inst, blas),
         })
         .collect();
-    let used = boxes.iter().any(|b| !b.is_empty());
-    (Tlas::build(&boxes), used, SphereSet::new(&spheres), ids)
+    let members: Vec<(u32, Bounds3)> =
+        boxes.iter().enumerate().filter(|(_, b)| !b.is_empty()).map(|(i, b)| (i as u32, *b)).collect();
+    TopLevel {
+        tlas: Tlas::build(&boxes),
+        used: !members.is_empty(),
+        spheres: SphereSet::new(&spheres),
+        sphere_instances: ids,
+        members,
+    }
 }
 
 fn instance_bounds(inst: &Instance, blas: &[MeshBvh]) -> Bounds3 {

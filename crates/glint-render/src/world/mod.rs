@@ -16,6 +16,7 @@
 //! validated before and read-only after; only [`World::set_time`] moves its animated parts.
 
 mod animation;
+mod batch;
 mod emitters;
 mod hit;
 mod instances;
@@ -24,6 +25,7 @@ mod shadows;
 #[cfg(test)]
 mod tests;
 
+pub use batch::Surfaces8;
 pub use emitters::EmissiveTriangle;
 pub use hit::{NO_PRIM, SurfaceHit};
 
@@ -61,6 +63,8 @@ pub struct World {
     spheres: SphereSet,
     /// Instance index of each member of `spheres`.
     sphere_instances: Vec<u32>,
+    /// The TLAS's members and their world boxes (see [`instances::TopLevel::members`]).
+    top_members: Vec<(u32, Bounds3)>,
     planes: Vec<Plane>,
     /// Instance index of each object (None for planes).
     instance_of_object: Vec<Option<usize>>,
@@ -119,7 +123,7 @@ impl World {
                 }
             }
         }
-        let (tlas, tlas_used, spheres, sphere_instances) = top_level(&instances, &blas);
+        let top = top_level(&instances, &blas);
         let any_transparent = scene.materials.iter().any(Material::is_transparent);
         let sky_irradiance = scene.sky_ambient.then(|| scene.sky.irradiance_sh());
         let curvature = scene.objects.iter().map(object_curvature).collect();
@@ -137,10 +141,11 @@ impl World {
             meshes,
             blas,
             instances,
-            tlas,
-            tlas_used,
-            spheres,
-            sphere_instances,
+            tlas: top.tlas,
+            tlas_used: top.used,
+            spheres: top.spheres,
+            sphere_instances: top.sphere_instances,
+            top_members: top.members,
             planes,
             instance_of_object,
             any_transparent,

@@ -2,7 +2,7 @@
 
 use super::*;
 use glint_accel::procedural::displaced_sphere;
-use glint_core::{Affine3A, Ray, Rgb, Vec2, Vec3};
+use glint_core::{Affine3A, Quat, Ray, Rgb, Vec2, Vec3};
 use glint_scene::{Camera, Fov, Object};
 
 fn scene(extra: Option<Shape>, world_from_object: Affine3A) -> Scene {
@@ -251,4 +251,84 @@ fn an_animated_plane_turns_and_rises() {
     assert!(world.set_time(1.0));
     let hit = world.intersect(&Ray::new(Vec3::new(3.0, 0.5, 0.0), -Vec3::X)).expect("the plane x = 0");
     assert!((hit.t - 3.0).abs() < 1e-5 && (hit.geometric_normal - (-Vec3::X)).length() < 1e-6, "{hit:?}");
+}
+
+/// A scene with every kind of surface the batch queries treat apart: set spheres (one glass),
+/// two planes (one transparent), an untransformed mesh, a transformed mesh, a transformed
+/// sphere and a transparent mesh.
+fn batch_scene() -> Scene {
+    let mut s = scene(Some(Shape::Plane { normal: Vec3::Y, offset: 1.0 }), Affine3A::IDENTITY);
+    let glass = Material { transparency: 0.7, ior: 1.5, ..Material::default() };
+    let tinted = Material { transparency: 0.5, ..Material::default() };
+    s.materials.extend([glass, tinted]);
+    let mut add = |shape: Shape, material: usize, world_from_object: Affine3A| {
+        s.objects.push(Object { name: "o".into(), shape, material, world_from_object });
+    };
+    add(Shape::Sphere { centre: Vec3::new(1.2, 0.0, 0.5), radius: 0.4 }, 1, Affine3A::IDENTITY);
+    add(Shape::Sphere { centre: Vec3::new(-1.2, 0.2, 0.0), radius: 0.3 }, 0, Affine3A::IDENTITY);
+    add(Shape::Sphere { centre: Vec3::ZERO, radius: 0.5 }, 0, Affine3A::from_translation(Vec3::new(0.0, 1.2, -1.0)));
+    add(
+        Shape::Mesh(0),
+        2,
+        Affine3A::from_scale_rotation_translation(
+            Vec3::splat(0.4),
+            Quat::from_rotation_y(0.7),
+            Vec3::new(1.5, 1.0, -2.0),
+        ),
+    );
+    add(Shape::Plane { normal: Vec3::new(0.0, 0.0, 1.0), offset: 4.0 }, 2, Affine3A::IDENTITY);
+    s
+}
+
+/// Eight-ray batches (surface data and shadow transmittance) equal the single-ray queries lane
+/// by lane, bit for bit, with random active masks, on primary rays and on rays from inside.
+#[test]
+#[allow(clippy::needless_range_loop)] // lanes indexed as the kernels index them
+fn batches_equal_single_rays() {
+    use glint_accel::batch::Rays8;
+    use glint_core::lanes::{LANES, M8};
+    let scene = batch_scene();
+    scene.validate().expect("valid scene");
+    let world = World::new(scene);
+    let cam = world.scene().camera.rays(64, 48);
+    let light = Vec3::new(2.0, 5.0, 4.0);
+    let (mut hits, mut kinds, mut partial) = (0, std::collections::HashSet::new(), 0);
+    let mut seed = 1u32;
+    let mut next = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 17;
+        seed ^= seed << 5;
+        seed
+    };
+    for ty in 0..24 {
+        for tx in 0..16 {
+            let rays: [Ray; LANES] = std::array::from_fn(|i| {
+                let r = cam.ray(Vec2::new((tx * 4 + i % 4) as f32 + 0.5, (ty * 2 + i / 4) as f32 + 0.5));
+                if (tx + ty) % 3 == 0 { Ray::new(Vec3::new(0.1, 0.2, 0.1), r.dir) } else { r }
+            });
+            let active = M8::from_bits(next() & 0xff | 1);
+            let batch = world.intersect_batch(&Rays8::from_rays(&rays), active);
+            let mut shadows = [Ray::new(Vec3::ZERO, Vec3::Y); LANES];
+            for i in 0..LANES {
+                let want = if active.lane(i) { world.intersect(&rays[i]) } else { None };
+                assert_eq!(format!("{:?}", batch.lane(i)), format!("{want:?}"), "tile ({tx}, {ty}) lane {i}");
+                if let Some(h) = want {
+                    shadows[i] = h.spawn_ray_to(light);
+                    hits += 1;
+                    kinds.insert(h.object);
+                }
+            }
+            let pass = world.transmittance_batch(&Rays8::from_rays(&shadows), active);
+            for i in 0..LANES {
+                let want = if active.lane(i) { world.transmittance(&shadows[i]) } else { Rgb::ZERO };
+                assert_eq!(
+                    pass.lane(i).to_array().map(f32::to_bits),
+                    want.to_array().map(f32::to_bits),
+                    "shadow ({tx}, {ty}) lane {i}"
+                );
+                partial += (want.x > 0.0 && want.x < 1.0) as usize;
+            }
+        }
+    }
+    assert!(hits > 1000 && kinds.len() >= 6 && partial > 20, "{hits} hits on {kinds:?}, {partial} partial shadows");
 }

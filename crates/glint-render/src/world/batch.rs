@@ -1,0 +1,373 @@
+//! Eight rays at once (pipeline: batched integrators ask **World** what eight rays hit, and
+//! how much light passes along eight shadow rays), structure of arrays with active-lane masks.
+//!
+//! The sphere set and the planes are tested across the eight rays in one pass each; the other
+//! instances (meshes, transformed spheres) are visited flat, each behind a box test of all
+//! eight rays against its world box, so a batch that misses an instance skips it whole, and a
+//! mesh is asked through `MeshBvh::intersect_batch` (the packet kernels beneath). The surface
+//! data of sphere-set and plane hits is computed across lanes; other hits lane by lane with
+//! the scalar code. Every lane performs the scalar queries' float operations, so a lane's hit
+//! is the single-ray hit (ties between different surfaces at exactly the same distance may
+//! resolve differently across the top level).
+
+use super::World;
+use super::hit::{NO_PRIM, SurfaceHit};
+use super::instances::{InstanceShape, transform_ray};
+use glint_accel::batch::{Hits8, Rays8, plane8, sphere_crossings8, sphere8};
+use glint_core::float::gamma;
+use glint_core::lanes::{F8, LANES, M8, U8x, V8};
+use glint_core::{Bounds3, Rgb, Vec2, Vec3};
+
+/// What eight rays hit, a lane plane per field; lanes outside `hit` hold nothing meaningful.
+/// Normals are as the geometry orients them (not flipped toward the ray), as [`SurfaceHit`].
+#[derive(Clone, Copy, Debug)]
+pub struct Surfaces8 {
+    pub hit: M8,
+    pub t: F8,
+    pub position: V8,
+    pub p_error: V8,
+    pub geometric_normal: V8,
+    pub shading_normal: V8,
+    pub uv: [F8; 2],
+    pub material: U8x,
+    pub object: U8x,
+    /// Triangle index within the object's mesh; [`NO_PRIM`] for spheres and planes.
+    pub prim: U8x,
+}
+
+impl Surfaces8 {
+    /// Lane `i` as a surface hit (`None` where it hit nothing).
+    #[must_use]
+    pub fn lane(&self, i: usize) -> Option<SurfaceHit> {
+        self.hit.lane(i).then(|| SurfaceHit {
+            t: self.t.0[i],
+            position: self.position.lane(i),
+            p_error: self.p_error.lane(i),
+            geometric_normal: self.geometric_normal.lane(i),
+            shading_normal: self.shading_normal.lane(i),
+            uv: Vec2::new(self.uv[0].0[i], self.uv[1].0[i]),
+            material: self.material.0[i],
+            object: self.object.0[i],
+            prim: self.prim.0[i],
+        })
+    }
+
+    fn set(&mut self, i: usize, h: &SurfaceHit) {
+        self.hit.0[i] = u32::MAX;
+        self.t.0[i] = h.t;
+        self.position.set(i, h.position);
+        self.p_error.set(i, h.p_error);
+        self.geometric_normal.set(i, h.geometric_normal);
+        self.shading_normal.set(i, h.shading_normal);
+        (self.uv[0].0[i], self.uv[1].0[i]) = (h.uv.x, h.uv.y);
+        (self.material.0[i], self.object.0[i], self.prim.0[i]) = (h.material, h.object, h.prim);
+    }
+}
+
+/// Which surface a lane's closest hit is on, while the search runs.
+const NONE: u32 = 0;
+const SET_SPHERE: u32 = 1;
+const TOP: u32 = 2;
+const PLANE: u32 = 3;
+
+/// More top-level members than this are not visited flat: each lane walks the TLAS alone.
+const FLAT_TOP_LIMIT: usize = 32;
+
+/// The lanes of `rays` whose segment `(tmin, tmax]` may meet box `b`: a conservative slab test
+/// (far distances scaled up by 1 + 4γ(3); NaN slabs leave a lane in).
+#[inline(always)]
+fn box8(rays: &Rays8, inv: &V8, active: M8, b: &Bounds3) -> M8 {
+    let slab = |o: F8, inv: F8, lo: f32, hi: f32| {
+        let t0 = (F8::splat(lo) - o) * inv;
+        let t1 = (F8::splat(hi) - o) * inv;
+        (t0.min(t1), t0.max(t1))
+    };
+    let (x0, x1) = slab(rays.origin.x, inv.x, b.min.x, b.max.x);
+    let (y0, y1) = slab(rays.origin.y, inv.y, b.min.y, b.max.y);
+    let (z0, z1) = slab(rays.origin.z, inv.z, b.min.z, b.max.z);
+    let near = x0.max(y0).max(z0).max(rays.tmin);
+    let far = x1.min(y1).min(z1).min(F8::splat(f32::INFINITY)) * F8::splat(1.0 + 4.0 * gamma(3));
+    let unsure = near.is_nan() | far.is_nan();
+    ((near.le(far) & near.le(rays.tmax)) | unsure) & active
+}
+
+impl World {
+    /// The closest hits of the active lanes of `rays`: lane `i` is
+    /// [`World::intersect`]`(&rays.ray(i))`.
+    #[must_use]
+    pub fn intersect_batch(&self, rays: &Rays8, active: M8) -> Surfaces8 {
+        let dd = rays.dir.dot(rays.dir);
+        let mut best = rays.tmax;
+        let mut kind = U8x::splat(NONE);
+        let mut index = U8x::splat(0);
+        let mut tri = Hits8::NONE;
+        // The sphere set: nearest, the lower index on ties (as `SphereSet::closest`).
+        for &inst in &self.sphere_instances {
+            let InstanceShape::Sphere { centre, radius } = self.instances[inst as usize].shape else { continue };
+            let (hit, t) = sphere8(rays, dd, active, centre, radius);
+            let take = hit & (t.lt(best) | kind.eq(U8x::splat(NONE)));
+            best = F8::select(take, t, best);
+            kind = U8x::select(take, U8x::splat(SET_SPHERE), kind);
+            index = U8x::select(take, U8x::splat(inst), index);
+        }
+        if self.tlas_used {
+            if self.top_members.len() > FLAT_TOP_LIMIT {
+                return self.intersect_lanes(rays, active);
+            }
+            let inv = V8::new(F8::ONE / rays.dir.x, F8::ONE / rays.dir.y, F8::ONE / rays.dir.z);
+            for &(inst, ref bounds) in &self.top_members {
+                let near = Rays8 { tmax: best, ..*rays };
+                let lanes = box8(&near, &inv, active, bounds);
+                if lanes.none() {
+                    continue;
+                }
+                let instance = &self.instances[inst as usize];
+                let local = if instance.identity { near } else { self.object_rays(inst, &near, lanes) };
+                let take = match instance.shape {
+                    InstanceShape::Sphere { centre, radius } => {
+                        let (hit, t) = sphere8(&local, local.dir.dot(local.dir), lanes, centre, radius);
+                        best = F8::select(hit, t, best);
+                        hit
+                    }
+                    InstanceShape::Mesh(m) => {
+                        let hit = self.blas[m].intersect_batch(&local, lanes, &mut tri);
+                        best = F8::select(hit, tri.t, best);
+                        hit
+                    }
+                };
+                kind = U8x::select(take, U8x::splat(TOP), kind);
+                index = U8x::select(take, U8x::splat(inst), index);
+            }
+        }
+        for (pi, p) in self.planes.iter().enumerate() {
+            let near = Rays8 { tmax: best, ..*rays };
+            let (hit, t) = plane8(&near, active, p.normal, p.offset);
+            best = F8::select(hit, t, best);
+            kind = U8x::select(hit, U8x::splat(PLANE), kind);
+            index = U8x::select(hit, U8x::splat(pi as u32), index);
+        }
+        self.surfaces8(rays, best, kind, index, &tri)
+    }
+
+    /// Lane by lane through the single-ray query (a top level too large to visit flat).
+    fn intersect_lanes(&self, rays: &Rays8, active: M8) -> Surfaces8 {
+        let mut out = empty_surfaces();
+        for i in 0..LANES {
+            if let Some(h) = active.lane(i).then(|| self.intersect(&rays.ray(i))).flatten() {
+                out.set(i, &h);
+            }
+        }
+        out
+    }
+
+    /// The lanes `lanes` of `rays` in the object space of instance `inst` (direction not
+    /// renormalised: `t` is shared).
+    fn object_rays(&self, inst: u32, rays: &Rays8, lanes: M8) -> Rays8 {
+        let mut out = *rays;
+        let from_world = &self.instances[inst as usize].object_from_world;
+        for i in 0..LANES {
+            if lanes.lane(i) {
+                let r = transform_ray(from_world, &rays.ray(i));
+                out.origin.set(i, r.origin);
+                out.dir.set(i, r.dir);
+            }
+        }
+        out
+    }
+
+    /// The surface data of the lanes' closest hits (see [`Self::intersect_batch`]).
+    fn surfaces8(&self, rays: &Rays8, t: F8, kind: U8x, index: U8x, tri: &Hits8) -> Surfaces8 {
+        let mut out = empty_surfaces();
+        out.t = t;
+        out.hit = !kind.eq(U8x::splat(NONE));
+        let spheres = kind.eq(U8x::splat(SET_SPHERE));
+        if spheres.any() {
+            self.sphere_surfaces(rays, spheres, index, &mut out);
+        }
+        let planes = kind.eq(U8x::splat(PLANE));
+        if planes.any() {
+            for (pi, p) in self.planes.iter().enumerate() {
+                let lanes = planes & index.eq(U8x::splat(pi as u32));
+                if lanes.any() {
+                    self.plane_surfaces(rays, lanes, p, &mut out);
+                }
+            }
+        }
+        let top = kind.eq(U8x::splat(TOP));
+        for i in 0..LANES {
+            if top.lane(i) {
+                let inst = &self.instances[index.0[i] as usize];
+                let h = tri.hit(i);
+                out.set(i, &self.instance_hit(inst, &rays.ray(i), t.0[i], h.prim, h.u, h.v));
+            }
+        }
+        out
+    }
+
+    /// Sphere-set hits across lanes: `World::instance_hit` of an untransformed sphere, lane
+    /// by lane the same operations.
+    fn sphere_surfaces(&self, rays: &Rays8, lanes: M8, index: U8x, out: &mut Surfaces8) {
+        let (mut centre, mut radius, mut material, mut object) = (V8::ZERO, F8::ZERO, U8x::splat(0), U8x::splat(0));
+        let mut textured = false;
+        for i in 0..LANES {
+            if lanes.lane(i) {
+                let inst = &self.instances[index.0[i] as usize];
+                if let InstanceShape::Sphere { centre: c, radius: r } = inst.shape {
+                    centre.set(i, c);
+                    radius.0[i] = r;
+                }
+                (material.0[i], object.0[i]) = (inst.material, inst.object);
+                textured |= self.scene.materials[inst.material as usize].texture.is_some();
+            }
+        }
+        let local = rays.origin + rays.dir.scale(out.t) - centre;
+        let rcp = F8::ONE / local.dot(local).sqrt();
+        let ok = rcp.lt(F8::splat(f32::INFINITY)) & rcp.gt(F8::ZERO);
+        let n = V8::select(ok, local.scale(rcp), V8::splat(Vec3::Y));
+        let local = n.scale(radius);
+        let p = centre + local;
+        let err = local.abs().scale(F8::splat(gamma(5))) + p.abs().scale(F8::splat(gamma(1)));
+        out.position = V8::select(lanes, p, out.position);
+        out.p_error = V8::select(lanes, err, out.p_error);
+        out.geometric_normal = V8::select(lanes, n, out.geometric_normal);
+        out.shading_normal = V8::select(lanes, n, out.shading_normal);
+        out.material = U8x::select(lanes, material, out.material);
+        out.object = U8x::select(lanes, object, out.object);
+        out.prim = U8x::select(lanes, U8x::splat(NO_PRIM), out.prim);
+        if textured {
+            // Spherical uv only where a texture reads it (atan2 and acos are not free).
+            for i in 0..LANES {
+                if lanes.lane(i) && self.scene.materials[material.0[i] as usize].texture.is_some() {
+                    let n = n.lane(i);
+                    out.uv[0].0[i] = 0.5 + n.x.atan2(-n.z) / std::f32::consts::TAU;
+                    out.uv[1].0[i] = 1.0 - n.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI;
+                }
+            }
+        }
+    }
+
+    /// Hits on plane `p` across lanes: `World::plane_hit`, lane by lane the same operations.
+    fn plane_surfaces(&self, rays: &Rays8, lanes: M8, p: &super::instances::Plane, out: &mut Surfaces8) {
+        let n = V8::splat(p.normal);
+        let raw = rays.origin + rays.dir.scale(out.t);
+        let position = raw - n.scale(raw.dot(n) + F8::splat(p.offset));
+        let a = position.abs();
+        let largest = a.x.max(a.y.max(a.z));
+        let err = F8::splat(gamma(6)) * (largest + F8::splat(p.offset.abs()));
+        out.position = V8::select(lanes, position, out.position);
+        out.p_error = V8::select(lanes, V8::new(err, err, err), out.p_error);
+        out.geometric_normal = V8::select(lanes, n, out.geometric_normal);
+        out.shading_normal = V8::select(lanes, n, out.shading_normal);
+        out.uv[0] = F8::select(lanes, position.dot(V8::splat(p.u_axis)), out.uv[0]);
+        out.uv[1] = F8::select(lanes, position.dot(V8::splat(p.v_axis)), out.uv[1]);
+        out.material = U8x::select(lanes, U8x::splat(p.material), out.material);
+        out.object = U8x::select(lanes, U8x::splat(p.object), out.object);
+        out.prim = U8x::select(lanes, U8x::splat(NO_PRIM), out.prim);
+    }
+
+    /// The fraction of light that passes along each active shadow ray: lane `i` is
+    /// [`World::transmittance`]`(&rays.ray(i))` (inactive lanes: 0).
+    #[must_use]
+    pub fn transmittance_batch(&self, rays: &Rays8, active: M8) -> V8 {
+        let dd = rays.dir.dot(rays.dir);
+        let mut blocked = M8::NONE;
+        // The product of the transparencies crossed (planes, the sphere set, the top level in
+        // this order, as the single-ray pass multiplies them).
+        let mut pass = F8::ONE;
+        for p in &self.planes {
+            let (hit, _) = plane8(rays, active.and_not(blocked), p.normal, p.offset);
+            if p.opaque {
+                blocked = blocked | hit;
+            } else {
+                pass = F8::select(hit, pass * F8::splat(self.material(p.material).transparency), pass);
+            }
+        }
+        for &inst in &self.sphere_instances {
+            let live = active.and_not(blocked);
+            if live.none() {
+                break;
+            }
+            let i = &self.instances[inst as usize];
+            let InstanceShape::Sphere { centre, radius } = i.shape else { continue };
+            let n = sphere_crossings8(rays, dd, live, centre, radius);
+            let crossed = n.gt(F8::ZERO);
+            if i.opaque {
+                blocked = blocked | crossed;
+            } else {
+                pass *= crossing_factor(n, self.material(i.material).transparency);
+            }
+        }
+        let mut walk = M8::NONE;
+        if self.tlas_used && active.and_not(blocked).any() {
+            if self.top_members.len() > FLAT_TOP_LIMIT {
+                return self.transmittance_lanes(rays, active);
+            }
+            let inv = V8::new(F8::ONE / rays.dir.x, F8::ONE / rays.dir.y, F8::ONE / rays.dir.z);
+            for &(inst, ref bounds) in &self.top_members {
+                let lanes = box8(rays, &inv, active.and_not(blocked), bounds);
+                if lanes.none() {
+                    continue;
+                }
+                let instance = &self.instances[inst as usize];
+                let local = if instance.identity { *rays } else { self.object_rays(inst, rays, lanes) };
+                match instance.shape {
+                    InstanceShape::Sphere { centre, radius } => {
+                        let n = sphere_crossings8(&local, local.dir.dot(local.dir), lanes, centre, radius);
+                        if instance.opaque {
+                            blocked = blocked | n.gt(F8::ZERO);
+                        } else {
+                            pass *= crossing_factor(n, self.material(instance.material).transparency);
+                        }
+                    }
+                    InstanceShape::Mesh(m) => {
+                        let hit = self.blas[m].occluded_batch(&local, lanes);
+                        if instance.opaque {
+                            blocked = blocked | hit;
+                        } else {
+                            walk = walk | hit;
+                        }
+                    }
+                }
+            }
+        }
+        let dark = blocked | pass.lt(F8::splat(1e-4)) | !active;
+        let pass = F8::select(dark, F8::ZERO, pass);
+        let mut out = V8::new(pass, pass, pass);
+        // A transparent mesh (its triangles may carry different materials) needs its hits in
+        // order: those lanes take the single-ray walk.
+        for i in 0..LANES {
+            if walk.lane(i) && !dark.lane(i) {
+                let t: Rgb = self.transmittance(&rays.ray(i));
+                out.set(i, t);
+            }
+        }
+        out
+    }
+
+    /// Lane by lane through the single-ray query.
+    fn transmittance_lanes(&self, rays: &Rays8, active: M8) -> V8 {
+        V8::from_fn(|i| if active.lane(i) { self.transmittance(&rays.ray(i)) } else { Vec3::ZERO })
+    }
+}
+
+/// `transparency^n` for n ∈ {0, 1, 2} crossings, as the single-ray pass's `powi` gives it.
+#[inline(always)]
+fn crossing_factor(n: F8, transparency: f32) -> F8 {
+    let (one, two) = (F8::splat(transparency), F8::splat(transparency * transparency));
+    F8::select(n.eq(F8::ONE), one, F8::select(n.eq(F8::splat(2.0)), two, F8::ONE))
+}
+
+fn empty_surfaces() -> Surfaces8 {
+    Surfaces8 {
+        hit: M8::NONE,
+        t: F8::ZERO,
+        position: V8::ZERO,
+        p_error: V8::ZERO,
+        geometric_normal: V8::ZERO,
+        shading_normal: V8::ZERO,
+        uv: [F8::ZERO; 2],
+        material: U8x::splat(0),
+        object: U8x::splat(0),
+        prim: U8x::splat(NO_PRIM),
+    }
+}
