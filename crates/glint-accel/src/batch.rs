@@ -42,7 +42,7 @@ impl Rays8 {
     #[inline(always)]
     #[must_use]
     pub fn ray(&self, i: usize) -> Ray {
-        Ray::segment(self.origin.lane(i), self.dir.lane(i), self.tmin.0[i], self.tmax.0[i])
+        Ray::segment(self.origin.lane(i), self.dir.lane(i), self.tmin[i], self.tmax[i])
     }
 
     /// The lanes as rays; inactive lanes get an empty interval (`tmin = +∞`), which no test
@@ -71,35 +71,42 @@ pub struct Hits8 {
 
 impl Hits8 {
     /// No lane has hit anything.
-    pub const NONE: Hits8 = Hits8 { t: F8::ZERO, prim: U8x([u32::MAX; LANES]), u: F8::ZERO, v: F8::ZERO };
+    pub const NONE: Hits8 = Hits8 { t: F8::ZERO, prim: U8x::from_array([u32::MAX; LANES]), u: F8::ZERO, v: F8::ZERO };
 
     /// Lane `i` as a hit.
     #[inline(always)]
     #[must_use]
     pub fn hit(&self, i: usize) -> Hit {
-        Hit { t: self.t.0[i], prim: self.prim.0[i], u: self.u.0[i], v: self.v.0[i] }
+        Hit { t: self.t[i], prim: self.prim[i], u: self.u[i], v: self.v[i] }
     }
 }
 
-/// Both roots of each lane's ray–sphere quadratic, ordered, and the lanes where they are real:
-/// [`crate::primitives`]' `sphere_roots`, lane by lane, operation for operation.
+/// The discriminant part of each lane's ray–sphere quadratic, as [`crate::primitives`]'
+/// `sphere_roots` computes it: `f = origin − centre`, `b = f·d`, `c = f·f − r²` and
+/// `disc = a (r² − |f − d b/a|²)`, with the lanes where the roots are real (`disc ≥ 0`, `a`
+/// finite and non-zero). A batch where no lane is real skips the rest.
 #[inline(always)]
-fn sphere_roots8(rays: &Rays8, dd: F8, centre: Vec3, radius: f32) -> (M8, F8, F8) {
+fn sphere_disc8(rays: &Rays8, dd: F8, centre: Vec3, radius: f32) -> (M8, F8, F8, F8) {
     let d = rays.dir;
     let f = rays.origin - V8::splat(centre);
     let r2 = F8::splat(radius * radius);
     let b = f.dot(d);
-    let c = f.dot(f) - r2;
     let l = f - d.scale(b / dd);
     let disc = dd * (r2 - l.dot(l));
     // NaN compares false: such lanes have no real roots; `a == 0` or non-finite lanes neither.
     let real = disc.ge(F8::ZERO) & dd.gt(F8::ZERO) & dd.lt(F8::splat(f32::INFINITY));
+    (real, disc, b, f.dot(f) - r2)
+}
+
+/// Both ordered roots from [`sphere_disc8`]'s parts, lane by lane `sphere_roots`' operations.
+#[inline(always)]
+fn sphere_roots8(dd: F8, disc: F8, b: F8, c: F8) -> (F8, F8) {
     let q = -(b + disc.max(F8::ZERO).sqrt().copysign(b));
     let q_zero = q.eq(F8::ZERO);
     let t0 = F8::select(q_zero, F8::ZERO, c / q);
     let t1 = F8::select(q_zero, F8::ZERO, q / dd);
     let ordered = t0.le(t1);
-    (real, F8::select(ordered, t0, t1), F8::select(ordered, t1, t0))
+    (F8::select(ordered, t0, t1), F8::select(ordered, t1, t0))
 }
 
 /// Lanes whose `t` lies in the ray's interval `(tmin, tmax]`.
@@ -114,7 +121,12 @@ fn within(rays: &Rays8, t: F8) -> M8 {
 #[inline(always)]
 #[must_use]
 pub fn sphere8(rays: &Rays8, dd: F8, active: M8, centre: Vec3, radius: f32) -> (M8, F8) {
-    let (real, t0, t1) = sphere_roots8(rays, dd, centre, radius);
+    let (real, disc, b, c) = sphere_disc8(rays, dd, centre, radius);
+    let real = real & active;
+    if real.none() {
+        return (M8::NONE, F8::ZERO);
+    }
+    let (t0, t1) = sphere_roots8(dd, disc, b, c);
     let in0 = within(rays, t0) & real & active;
     let in1 = within(rays, t1) & real & active;
     (in0 | in1, F8::select(in0, t0, t1))
@@ -125,8 +137,12 @@ pub fn sphere8(rays: &Rays8, dd: F8, active: M8, centre: Vec3, radius: f32) -> (
 #[inline(always)]
 #[must_use]
 pub fn sphere_crossings8(rays: &Rays8, dd: F8, active: M8, centre: Vec3, radius: f32) -> F8 {
-    let (real, t0, t1) = sphere_roots8(rays, dd, centre, radius);
+    let (real, disc, b, c) = sphere_disc8(rays, dd, centre, radius);
     let live = real & active;
+    if live.none() {
+        return F8::ZERO;
+    }
+    let (t0, t1) = sphere_roots8(dd, disc, b, c);
     let one = |m: M8| F8::select(m & live, F8::ONE, F8::ZERO);
     one(within(rays, t0)) + one(within(rays, t1))
 }
@@ -150,14 +166,14 @@ impl MeshBvh {
     pub fn intersect_batch(&self, rays: &Rays8, active: M8, out: &mut Hits8) -> M8 {
         let mut found = [None; LANES];
         self.intersect8(&rays.to_rays(active), &mut found);
-        let mut hit = M8::NONE;
+        let mut hit = 0;
         for (i, f) in found.into_iter().enumerate() {
             if let (Some(h), true) = (f, active.lane(i)) {
-                (out.t.0[i], out.prim.0[i], out.u.0[i], out.v.0[i]) = (h.t, h.prim, h.u, h.v);
-                hit.0[i] = u32::MAX;
+                (out.t[i], out.prim[i], out.u[i], out.v[i]) = (h.t, h.prim, h.u, h.v);
+                hit |= 1 << i;
             }
         }
-        hit
+        M8::from_bits(hit)
     }
 
     /// The active lanes of `rays` that hit anything in their interval (any hit), as
@@ -166,7 +182,7 @@ impl MeshBvh {
     pub fn occluded_batch(&self, rays: &Rays8, active: M8) -> M8 {
         let mut blocked = [false; LANES];
         self.occluded8(&rays.to_rays(active), &mut blocked);
-        M8(std::array::from_fn(|i| if blocked[i] && active.lane(i) { u32::MAX } else { 0 })) & active
+        M8::from_fn(|i| blocked[i]) & active
     }
 }
 
@@ -202,9 +218,9 @@ mod tests {
             let crossings = sphere_crossings8(&batch, dd, active, c, r);
             for i in 0..LANES {
                 let want = intersect_sphere(&rays[i], c, r).filter(|_| active.lane(i));
-                assert_eq!(hit.lane(i).then_some(t.0[i].to_bits()), want.map(f32::to_bits), "sphere lane {i}");
+                assert_eq!(hit.lane(i).then_some(t[i].to_bits()), want.map(f32::to_bits), "sphere lane {i}");
                 let want = if active.lane(i) { sphere_crossings(&rays[i], c, r) } else { 0 };
-                assert_eq!(crossings.0[i], want as f32, "crossings lane {i}");
+                assert_eq!(crossings[i], want as f32, "crossings lane {i}");
             }
         }
     }
@@ -221,7 +237,7 @@ mod tests {
             let (hit, t) = plane8(&batch, active, n, offset);
             for i in 0..LANES {
                 let want = intersect_plane(&rays[i], n, offset).filter(|_| active.lane(i));
-                assert_eq!(hit.lane(i).then_some(t.0[i].to_bits()), want.map(f32::to_bits), "lane {i}");
+                assert_eq!(hit.lane(i).then_some(t[i].to_bits()), want.map(f32::to_bits), "lane {i}");
             }
         }
     }
@@ -243,7 +259,7 @@ mod tests {
                 let want = bvh.intersect(&rays[i]).filter(|_| active.lane(i));
                 assert_eq!(hit.lane(i).then(|| out.hit(i)), want, "lane {i}");
                 if !active.lane(i) {
-                    assert_eq!(out.prim.0[i], u32::MAX, "inactive lane {i} written");
+                    assert_eq!(out.prim[i], u32::MAX, "inactive lane {i} written");
                 }
                 assert_eq!(blocked.lane(i), active.lane(i) && bvh.occluded(&rays[i]), "occluded lane {i}");
             }

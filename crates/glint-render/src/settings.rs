@@ -43,6 +43,20 @@ impl ImageSettings {
     }
 }
 
+/// How the Whitted integrator traces (the same picture either way, to well below one 8-bit
+/// step; BENCHMARKS.md §3 compares their speed).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum WhittedKernel {
+    /// Eight rays at a time in structure of arrays: tiles of ray streams, compacted per depth,
+    /// shaded across lanes, AVX2 where the machine has it.
+    #[default]
+    Batched,
+    /// The same batched code, compiled for the x86-64 baseline only (SSE2).
+    BatchedBaseline,
+    /// One ray at a time (the oracle).
+    Scalar,
+}
+
 /// The Whitted integrator's settings (DESIGN.md §1).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WhittedSettings {
@@ -52,6 +66,7 @@ pub struct WhittedSettings {
     pub max_depth: u32,
     /// A branch whose accumulated weight falls below this is not traced.
     pub min_contribution: f32,
+    pub kernel: WhittedKernel,
 }
 
 impl Default for WhittedSettings {
@@ -64,7 +79,12 @@ impl WhittedSettings {
     /// The settings a scene file gives (its `[image]` samples and `[render]` section).
     #[must_use]
     pub fn from_defaults(d: &RenderDefaults) -> Self {
-        Self { samples_per_side: d.samples_per_side, max_depth: d.max_depth, min_contribution: d.min_contribution }
+        Self {
+            samples_per_side: d.samples_per_side,
+            max_depth: d.max_depth,
+            min_contribution: d.min_contribution,
+            kernel: WhittedKernel::default(),
+        }
     }
 
     /// # Errors

@@ -7,14 +7,17 @@
 //! coherence. Every sample position is `hash(pixel, sample, seed)`: the image does not depend
 //! on the thread count.
 
+mod batch;
+mod isa;
 pub mod optics;
+mod shade8;
 mod tracer;
 
 pub use tracer::{FirstHit, Tracer};
 
 use crate::bands::{self, Hooks};
 use crate::film::{Film, FilmPixel};
-use crate::settings::{ImageSettings, WhittedSettings};
+use crate::settings::{ImageSettings, WhittedKernel, WhittedSettings};
 use crate::stats::{BandStats, FrameStats};
 use crate::{RenderError, World};
 use glint_core::random::SampleStream;
@@ -118,7 +121,18 @@ pub fn render(
     };
 
     let parts: Vec<&mut [FilmPixel]> = film.pixels.chunks_mut(w * BAND_ROWS).collect();
-    let totals = bands::run(parts, image.schedule, hooks, render_band)?;
+    let totals = match settings.kernel {
+        WhittedKernel::Scalar => bands::run(parts, image.schedule, hooks, render_band)?,
+        kernel => {
+            let frame = batch::Frame::new(world, camera, image, &settings, samples);
+            let baseline = kernel == WhittedKernel::BatchedBaseline;
+            bands::run(parts, image.schedule, hooks, |i, band: &mut [FilmPixel]| {
+                let stats = isa::band(&frame, i, BAND_ROWS, band, baseline);
+                hooks.report((band.len() / w) as u64);
+                stats
+            })?
+        }
+    };
     let elapsed = start.elapsed();
     let n = settings.samples_per_side;
     Ok(FrameStats {

@@ -40,27 +40,27 @@ impl Surfaces8 {
     #[must_use]
     pub fn lane(&self, i: usize) -> Option<SurfaceHit> {
         self.hit.lane(i).then(|| SurfaceHit {
-            t: self.t.0[i],
+            t: self.t[i],
             position: self.position.lane(i),
             p_error: self.p_error.lane(i),
             geometric_normal: self.geometric_normal.lane(i),
             shading_normal: self.shading_normal.lane(i),
-            uv: Vec2::new(self.uv[0].0[i], self.uv[1].0[i]),
-            material: self.material.0[i],
-            object: self.object.0[i],
-            prim: self.prim.0[i],
+            uv: Vec2::new(self.uv[0][i], self.uv[1][i]),
+            material: self.material[i],
+            object: self.object[i],
+            prim: self.prim[i],
         })
     }
 
     fn set(&mut self, i: usize, h: &SurfaceHit) {
-        self.hit.0[i] = u32::MAX;
-        self.t.0[i] = h.t;
+        self.hit = self.hit | M8::from_bits(1 << i);
+        self.t[i] = h.t;
         self.position.set(i, h.position);
         self.p_error.set(i, h.p_error);
         self.geometric_normal.set(i, h.geometric_normal);
         self.shading_normal.set(i, h.shading_normal);
-        (self.uv[0].0[i], self.uv[1].0[i]) = (h.uv.x, h.uv.y);
-        (self.material.0[i], self.object.0[i], self.prim.0[i]) = (h.material, h.object, h.prim);
+        (self.uv[0][i], self.uv[1][i]) = (h.uv.x, h.uv.y);
+        (self.material[i], self.object[i], self.prim[i]) = (h.material, h.object, h.prim);
     }
 }
 
@@ -95,6 +95,7 @@ impl World {
     /// The closest hits of the active lanes of `rays`: lane `i` is
     /// [`World::intersect`]`(&rays.ray(i))`.
     #[must_use]
+    #[inline(always)]
     pub fn intersect_batch(&self, rays: &Rays8, active: M8) -> Surfaces8 {
         let dd = rays.dir.dot(rays.dir);
         let mut best = rays.tmax;
@@ -162,6 +163,7 @@ impl World {
 
     /// The lanes `lanes` of `rays` in the object space of instance `inst` (direction not
     /// renormalised: `t` is shared).
+    #[inline(always)]
     fn object_rays(&self, inst: u32, rays: &Rays8, lanes: M8) -> Rays8 {
         let mut out = *rays;
         let from_world = &self.instances[inst as usize].object_from_world;
@@ -176,6 +178,7 @@ impl World {
     }
 
     /// The surface data of the lanes' closest hits (see [`Self::intersect_batch`]).
+    #[inline(always)]
     fn surfaces8(&self, rays: &Rays8, t: F8, kind: U8x, index: U8x, tri: &Hits8) -> Surfaces8 {
         let mut out = empty_surfaces();
         out.t = t;
@@ -196,9 +199,9 @@ impl World {
         let top = kind.eq(U8x::splat(TOP));
         for i in 0..LANES {
             if top.lane(i) {
-                let inst = &self.instances[index.0[i] as usize];
+                let inst = &self.instances[index[i] as usize];
                 let h = tri.hit(i);
-                out.set(i, &self.instance_hit(inst, &rays.ray(i), t.0[i], h.prim, h.u, h.v));
+                out.set(i, &self.instance_hit(inst, &rays.ray(i), t[i], h.prim, h.u, h.v));
             }
         }
         out
@@ -206,17 +209,18 @@ impl World {
 
     /// Sphere-set hits across lanes: `World::instance_hit` of an untransformed sphere, lane
     /// by lane the same operations.
+    #[inline(always)]
     fn sphere_surfaces(&self, rays: &Rays8, lanes: M8, index: U8x, out: &mut Surfaces8) {
         let (mut centre, mut radius, mut material, mut object) = (V8::ZERO, F8::ZERO, U8x::splat(0), U8x::splat(0));
         let mut textured = false;
         for i in 0..LANES {
             if lanes.lane(i) {
-                let inst = &self.instances[index.0[i] as usize];
+                let inst = &self.instances[index[i] as usize];
                 if let InstanceShape::Sphere { centre: c, radius: r } = inst.shape {
                     centre.set(i, c);
-                    radius.0[i] = r;
+                    radius[i] = r;
                 }
-                (material.0[i], object.0[i]) = (inst.material, inst.object);
+                (material[i], object[i]) = (inst.material, inst.object);
                 textured |= self.scene.materials[inst.material as usize].texture.is_some();
             }
         }
@@ -237,16 +241,17 @@ impl World {
         if textured {
             // Spherical uv only where a texture reads it (atan2 and acos are not free).
             for i in 0..LANES {
-                if lanes.lane(i) && self.scene.materials[material.0[i] as usize].texture.is_some() {
+                if lanes.lane(i) && self.scene.materials[material[i] as usize].texture.is_some() {
                     let n = n.lane(i);
-                    out.uv[0].0[i] = 0.5 + n.x.atan2(-n.z) / std::f32::consts::TAU;
-                    out.uv[1].0[i] = 1.0 - n.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI;
+                    out.uv[0][i] = 0.5 + n.x.atan2(-n.z) / std::f32::consts::TAU;
+                    out.uv[1][i] = 1.0 - n.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI;
                 }
             }
         }
     }
 
     /// Hits on plane `p` across lanes: `World::plane_hit`, lane by lane the same operations.
+    #[inline(always)]
     fn plane_surfaces(&self, rays: &Rays8, lanes: M8, p: &super::instances::Plane, out: &mut Surfaces8) {
         let n = V8::splat(p.normal);
         let raw = rays.origin + rays.dir.scale(out.t);
@@ -268,6 +273,7 @@ impl World {
     /// The fraction of light that passes along each active shadow ray: lane `i` is
     /// [`World::transmittance`]`(&rays.ray(i))` (inactive lanes: 0).
     #[must_use]
+    #[inline(always)]
     pub fn transmittance_batch(&self, rays: &Rays8, active: M8) -> V8 {
         let dd = rays.dir.dot(rays.dir);
         let mut blocked = M8::NONE;

@@ -65,6 +65,13 @@ impl World {
         }
     }
 
+    /// The ambient colour when it is the same for every normal (no sky irradiance).
+    #[inline]
+    #[must_use]
+    pub fn ambient_is_constant(&self) -> Option<Rgb> {
+        self.sky_irradiance.is_none().then_some(self.scene.ambient)
+    }
+
     /// The surface colour at a hit: material colour × texture.
     #[inline]
     #[must_use]

@@ -70,7 +70,7 @@ use glint_scene::{AnimationBase, AnimationTarget, Attenuation, Keyframes, Light,
 
 /// A whole Whitted frame (one ray per pixel, depth 4) of `size` seen by the scene's camera.
 fn frame(world: &World, (width, height): (u32, u32)) -> Film {
-    let settings = WhittedSettings { samples_per_side: 1, max_depth: 4, min_contribution: 1e-3 };
+    let settings = WhittedSettings { samples_per_side: 1, max_depth: 4, ..WhittedSettings::default() };
     let mut film = Film::new(1, 1);
     let image = ImageSettings::new(width, height);
     whitted::render(world, &world.scene().camera, &image, &settings, Samples::Stratified, &Hooks::default(), &mut film)

@@ -6,7 +6,9 @@
 
 use glint_render::path::{PathAccumulator, PathSettings, render_path};
 use glint_render::whitted::{self, Samples};
-use glint_render::{Film, FrameStats, Hooks, ImageSettings, RenderError, Schedule, WhittedSettings, World};
+use glint_render::{
+    Film, FrameStats, Hooks, ImageSettings, RenderError, Schedule, WhittedKernel, WhittedSettings, World,
+};
 
 /// The image and Whitted settings of a test frame, flat for struct-update syntax.
 #[derive(Clone, Copy, Debug)]
@@ -18,6 +20,7 @@ pub struct Settings {
     pub min_contribution: f32,
     pub seed: u64,
     pub schedule: Schedule,
+    pub kernel: WhittedKernel,
 }
 
 impl Settings {
@@ -30,6 +33,7 @@ impl Settings {
             samples_per_side: self.samples_per_side,
             max_depth: self.max_depth,
             min_contribution: self.min_contribution,
+            kernel: self.kernel,
         }
     }
 
@@ -56,6 +60,7 @@ pub fn settings(w: u32, h: u32) -> Settings {
         min_contribution: 1e-3,
         seed: 0,
         schedule: Schedule::WorkStealing,
+        kernel: WhittedKernel::Batched,
     }
 }
 

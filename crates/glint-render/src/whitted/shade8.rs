@@ -1,0 +1,432 @@
+//! Whitted shading of eight hits at once (pipeline: batched tracer → **shade8** → sample sums
+//! and the next depth's rays): materials gathered into lanes, Phong with one shadow packet per
+//! light, Schlick or exact dielectric Fresnel, the reflected and refracted rays spawned.
+//!
+//! Every formula is the scalar tracer's (`tracer.rs`), lane by lane and in the same order,
+//! with masks where the scalar code branches: misses, material classes (Schlick, transparent,
+//! Fresnel), total internal reflection, the contribution threshold. Two things differ by a
+//! rounding: the Phong power is [`pow8_unit`] (relative error < 3e-5) instead of `powf`, and
+//! contributions reach a sample in depth order instead of the scalar stack's order.
+
+use super::batch::{Lanes, Stream, TileSums};
+use crate::world::World;
+use glint_accel::batch::Rays8;
+use glint_core::float::offset_ray_origin8;
+use glint_core::lanes::{F8, LANES, M8, U8x, V8, pow8_unit};
+use glint_core::{Rgb, Vec3};
+use glint_scene::{Attenuation, Light, Material, Sky, Texture};
+
+use crate::world::Surfaces8;
+
+/// The scene's materials as arrays a lane can gather from.
+pub(super) struct MaterialTable {
+    colour: Vec<Vec3>,
+    texture: Vec<Option<usize>>,
+    ambient: Vec<f32>,
+    diffuse: Vec<f32>,
+    specular: Vec<f32>,
+    shininess: Vec<f32>,
+    reflectivity: Vec<f32>,
+    transparency: Vec<f32>,
+    ior: Vec<f32>,
+    fresnel: Vec<bool>,
+    emission: Vec<Vec3>,
+    f0: Vec<Option<Vec3>>,
+}
+
+impl MaterialTable {
+    pub(super) fn new(materials: &[Material]) -> Self {
+        let col = |f: fn(&Material) -> f32| materials.iter().map(f).collect::<Vec<f32>>();
+        Self {
+            colour: materials.iter().map(|m| m.colour).collect(),
+            texture: materials.iter().map(|m| m.texture).collect(),
+            ambient: col(|m| m.ambient),
+            diffuse: col(|m| m.diffuse),
+            specular: col(|m| m.specular),
+            shininess: col(|m| m.shininess),
+            reflectivity: col(|m| m.reflectivity),
+            transparency: col(|m| m.transparency),
+            ior: col(|m| m.ior),
+            fresnel: materials.iter().map(|m| m.fresnel).collect(),
+            emission: materials.iter().map(|m| m.emission).collect(),
+            f0: materials.iter().map(|m| m.reflection_f0).collect(),
+        }
+    }
+}
+
+/// One material per lane.
+struct Materials8 {
+    colour: V8,
+    ambient: F8,
+    diffuse: F8,
+    specular: F8,
+    shininess: F8,
+    reflectivity: F8,
+    transparency: F8,
+    ior: F8,
+    fresnel: M8,
+    emission: V8,
+    f0: V8,
+    /// Lanes whose material reflects by Schlick's Fresnel (`reflection_f0`).
+    schlick: M8,
+}
+
+impl Materials8 {
+    /// The materials of the `lanes` (one load per field when they share one).
+    #[inline(always)]
+    fn gather(t: &MaterialTable, index: U8x, lanes: M8) -> Materials8 {
+        let first = index[lanes.bits().trailing_zeros() as usize % LANES] as usize;
+        let shared = (index.eq(U8x::splat(first as u32)) | !lanes) == M8::ALL;
+        let f = |v: &[f32]| {
+            if shared { F8::splat(v[first]) } else { F8::from_fn(|i| v[index[i] as usize]) }
+        };
+        let v = |v: &[Vec3]| {
+            if shared { V8::splat(v[first]) } else { V8::from_fn(|i| v[index[i] as usize]) }
+        };
+        let m = |v: &[bool]| M8::from_fn(|i| v[index[i] as usize]);
+        let f0 = |i: usize| t.f0[index[i] as usize];
+        Materials8 {
+            colour: v(&t.colour),
+            ambient: f(&t.ambient),
+            diffuse: f(&t.diffuse),
+            specular: f(&t.specular),
+            shininess: f(&t.shininess),
+            reflectivity: f(&t.reflectivity),
+            transparency: f(&t.transparency),
+            ior: f(&t.ior),
+            fresnel: m(&t.fresnel),
+            emission: v(&t.emission),
+            f0: V8::from_fn(|i| f0(i).unwrap_or(Vec3::ZERO)),
+            schlick: M8::from_fn(|i| f0(i).is_some()),
+        }
+    }
+}
+
+/// A light as the lanes read it: what `Light::sample_at` computes, with the spot cone's
+/// cosines worked out once.
+pub(super) struct LightLanes {
+    kind: LightKind,
+    position: Vec3,
+    /// Spot axis (unit), or a directional light's travel direction.
+    direction: Vec3,
+    colour: Vec3,
+    intensity: f32,
+    inverse_square: bool,
+    cos_inner: f32,
+    cos_outer: f32,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum LightKind {
+    Point,
+    Directional,
+    Spot,
+}
+
+impl LightLanes {
+    pub(super) fn new(light: &Light) -> Self {
+        let base = LightLanes {
+            kind: LightKind::Point,
+            position: Vec3::ZERO,
+            direction: Vec3::ZERO,
+            colour: Vec3::ZERO,
+            intensity: 0.0,
+            inverse_square: false,
+            cos_inner: 1.0,
+            cos_outer: 1.0,
+        };
+        match *light {
+            Light::Point { position, colour, intensity, attenuation } => LightLanes {
+                position,
+                colour,
+                intensity,
+                inverse_square: attenuation == Attenuation::InverseSquare,
+                ..base
+            },
+            Light::Directional { direction, colour, intensity } => {
+                LightLanes { kind: LightKind::Directional, direction, colour, intensity, ..base }
+            }
+            Light::Spot { position, direction, inner_deg, outer_deg, colour, intensity, attenuation } => LightLanes {
+                kind: LightKind::Spot,
+                position,
+                direction,
+                colour,
+                intensity,
+                inverse_square: attenuation == Attenuation::InverseSquare,
+                cos_inner: inner_deg.to_radians().cos(),
+                cos_outer: outer_deg.to_radians().cos(),
+            },
+        }
+    }
+
+    /// `Light::sample_at` of eight points: the unit direction toward the light, the distance
+    /// (∞ for a directional light), the radiance, and the lanes the light reaches.
+    #[inline(always)]
+    fn sample(&self, p: V8) -> (V8, F8, V8, M8) {
+        if self.kind == LightKind::Directional {
+            let radiance = V8::splat(self.colour * self.intensity);
+            return (V8::splat(-self.direction), F8::splat(f32::INFINITY), radiance, M8::ALL);
+        }
+        let d = V8::splat(self.position) - p;
+        let dist = d.dot(d).sqrt();
+        let reaches = dist.gt(F8::ZERO);
+        let wi = V8::new(d.x / dist, d.y / dist, d.z / dist);
+        let mut fall = if self.inverse_square { F8::ONE / (dist * dist) } else { F8::ONE };
+        let mut lit = reaches;
+        if self.kind == LightKind::Spot {
+            let cos = (-wi).dot(V8::splat(self.direction));
+            let (ci, co) = (self.cos_inner, self.cos_outer);
+            let x = (cos - F8::splat(co)) / F8::splat(ci - co);
+            let smooth = x * x * (F8::splat(3.0) - F8::splat(2.0) * x);
+            let cone = if ci <= co {
+                F8::select(cos.ge(F8::splat(ci)), F8::ONE, F8::ZERO)
+            } else {
+                F8::select(cos.ge(F8::splat(ci)), F8::ONE, F8::select(cos.le(F8::splat(co)), F8::ZERO, smooth))
+            };
+            lit = lit & cone.gt(F8::ZERO);
+            fall *= cone;
+        }
+        let scale = F8::splat(self.intensity) * fall;
+        (wi, dist, V8::splat(self.colour).scale(scale), lit)
+    }
+}
+
+/// What every batch of a frame shares.
+pub(super) struct Shading<'a> {
+    pub world: &'a World,
+    pub materials: MaterialTable,
+    pub lights: Vec<LightLanes>,
+    pub max_depth: u32,
+    pub min_contribution: f32,
+    /// The camera, for the depth AOV.
+    pub eye: Vec3,
+    pub forward: Vec3,
+}
+
+/// `i − 2 n (n·i)`.
+#[inline(always)]
+fn reflect(i: V8, n: V8) -> V8 {
+    i - n.scale(F8::splat(2.0) * n.dot(i))
+}
+
+/// `x.clamp(0, 1)` as `f32::clamp` gives it for finite x.
+#[inline(always)]
+fn unit(x: F8) -> F8 {
+    x.max(F8::ZERO).min(F8::ONE)
+}
+
+/// The surface colour (material colour × texture) of the hit lanes.
+#[inline(always)]
+fn albedo(s: &Shading, m: &Materials8, surf: &Surfaces8, lanes: M8) -> V8 {
+    let textured = M8::from_fn(|i| lanes.lane(i) && s.materials.texture[surf.material[i] as usize].is_some());
+    if textured.none() {
+        return m.colour;
+    }
+    let mut tex = V8::splat(Vec3::ONE);
+    let textures = &s.world.scene().textures;
+    let mut todo = textured;
+    while todo.any() {
+        let lane = todo.bits().trailing_zeros() as usize;
+        let Some(ti) = s.materials.texture[surf.material[lane] as usize] else { break };
+        // Every lane with this texture at once.
+        let same = M8::from_fn(|i| todo.lane(i) && s.materials.texture[surf.material[i] as usize] == Some(ti));
+        match &textures[ti] {
+            Texture::Checker { size, even, odd } => {
+                // Texture::evaluate: floor(uv / size), parity of the sum (exact below 2^24).
+                let cx = (surf.uv[0] / F8::splat(*size)).floor();
+                let cy = (surf.uv[1] / F8::splat(*size)).floor();
+                let sum = cx + cy;
+                let parity = sum - F8::splat(2.0) * (sum * F8::splat(0.5)).floor();
+                let colour = V8::select(parity.eq(F8::ZERO), V8::splat(*even), V8::splat(*odd));
+                tex = V8::select(same, colour, tex);
+            }
+            t @ Texture::Image { .. } => {
+                for i in 0..LANES {
+                    if same.lane(i) {
+                        tex.set(i, t.evaluate(glint_core::Vec2::new(surf.uv[0][i], surf.uv[1][i])));
+                    }
+                }
+            }
+        }
+        todo = todo.and_not(same);
+    }
+    V8::select(textured, m.colour * tex, m.colour)
+}
+
+/// The sky seen by the missing lanes, each over its ray cone.
+#[inline(always)]
+pub(super) fn sky8(sky: &Sky, dir: V8, spread: F8, lanes: M8) -> V8 {
+    match sky {
+        Sky::Colour(c) => V8::splat(*c),
+        _ => V8::from_fn(|i| if lanes.lane(i) { sky.radiance_filtered(dir.lane(i), spread[i]) } else { Rgb::ZERO }),
+    }
+}
+
+/// Shade the hit lanes of one batch: add `weight × (local light)` to each lane's sample, and
+/// push the reflected and refracted rays that pass the depth limit and the contribution
+/// threshold onto `next`. Returns the shadow rays traced.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(super) fn shade(
+    s: &Shading,
+    rays: &Rays8,
+    b: &Lanes,
+    surf: &Surfaces8,
+    lanes: M8,
+    depth: u32,
+    sums: &mut TileSums,
+    next: &mut Stream,
+) -> u64 {
+    let m = Materials8::gather(&s.materials, surf.material, lanes);
+    let albedo = albedo(s, &m, surf, lanes);
+    let wo = -rays.dir;
+    // Orient the normals toward the side the ray came from.
+    let entering = surf.geometric_normal.dot(wo).ge(F8::ZERO);
+    let ng = V8::select(entering, surf.geometric_normal, -surf.geometric_normal);
+    let ns = V8::select(entering, surf.shading_normal, -surf.shading_normal);
+    if depth == 0 {
+        let d = (surf.position - V8::splat(s.eye)).dot(V8::splat(s.forward));
+        for i in 0..LANES {
+            if lanes.lane(i) {
+                sums.first_hit(b.sample[i] as usize, ns.lane(i), albedo.lane(i), d[i]);
+            }
+        }
+    }
+    let (local, shadows) = local(s, surf, &m, albedo, wo, ng, ns, lanes);
+    let cos_o = unit(ns.dot(wo));
+    // Ray cones at the hit and after it (see `tracer.rs`).
+    let width = b.width + b.spread * surf.t;
+    let curvature = F8::from_fn(|i| s.world.curvature(surf.object[i]));
+    let curvature = F8::select(entering, curvature, -curvature);
+    let reflected_spread = (b.spread + F8::splat(2.0) * curvature * width).abs();
+    let deeper = depth < s.max_depth;
+    let reflect_dir = reflect(-wo, ns);
+
+    // Schlick lanes: lerp(shaded, reflected, F), F = f0 + (1 − f0)(1 − cos)^5.
+    let schlick = lanes & m.schlick;
+    let x = F8::ONE - cos_o;
+    let x2 = x * x;
+    let fifth = x * (x2 * x2);
+    let f = m.f0 + (V8::splat1(1.0) - m.f0).scale(fifth);
+    // The others: local × (1 − transparency), then reflection and refraction weights.
+    let plain = lanes.and_not(m.schlick);
+    let weighted = b.weight * local;
+    let contribution = V8::select(schlick, weighted * (V8::splat1(1.0) - f), weighted.scale(F8::ONE - m.transparency));
+    for i in 0..LANES {
+        if lanes.lane(i) {
+            sums.add(b.sample[i] as usize, contribution.lane(i));
+        }
+    }
+    if !deeper {
+        return shadows;
+    }
+    let min = F8::splat(s.min_contribution);
+    // Schlick reflection.
+    let w = b.weight * f;
+    let push = schlick & w.max_element().gt(min);
+    // Dielectric weights (transparent lanes), with total internal reflection.
+    let transparent = plain & m.transparency.gt(F8::ZERO);
+    let eta_i = F8::select(entering, F8::ONE, m.ior);
+    let eta_t = F8::select(entering, m.ior, F8::ONE);
+    let eta = eta_i / eta_t;
+    let i_dir = -wo;
+    let cos_i = -ns.dot(i_dir);
+    let k = F8::ONE - eta * eta * (F8::ONE - cos_i * cos_i);
+    let refracts = transparent & k.ge(F8::ZERO);
+    let refract_dir = (i_dir.scale(eta) + ns.scale(eta * cos_i - k.max(F8::ZERO).sqrt())).normalize();
+    let fr = fresnel_dielectric(cos_o, eta_i, eta_t);
+    let fr = F8::select(refracts, fr, F8::ONE);
+    let fresnel = transparent & m.fresnel;
+    let k_refl = F8::select(
+        fresnel,
+        (m.reflectivity + m.transparency * fr).min(F8::ONE),
+        F8::select(transparent.and_not(refracts), (m.reflectivity + m.transparency).min(F8::ONE), m.reflectivity),
+    );
+    let k_refr = F8::select(fresnel, m.transparency * (F8::ONE - fr), F8::select(refracts, m.transparency, F8::ZERO));
+    let w_refl = b.weight.scale(k_refl);
+    let push_refl = plain & k_refl.gt(F8::ZERO) & w_refl.max_element().gt(min);
+    let w_refr = b.weight.scale(k_refr);
+    let push_refr = refracts & k_refr.gt(F8::ZERO) & w_refr.max_element().gt(min);
+    let refr_spread = (b.spread * eta_i / eta_t - (eta_t - eta_i) / eta_t * curvature * width).abs();
+
+    let reflected = push | push_refl;
+    if reflected.any() {
+        let origin = offset_ray_origin8(surf.position, surf.p_error, surf.geometric_normal, reflect_dir);
+        let weight = V8::select(push, w, w_refl);
+        next.push_lanes(reflected, origin, reflect_dir, weight, width, reflected_spread, b.sample);
+    }
+    if push_refr.any() {
+        let origin = offset_ray_origin8(surf.position, surf.p_error, surf.geometric_normal, refract_dir);
+        next.push_lanes(push_refr, origin, refract_dir, w_refr, width, refr_spread, b.sample);
+    }
+    shadows
+}
+
+/// Exact unpolarised dielectric Fresnel reflectance per lane (`optics::fresnel_dielectric`).
+#[inline(always)]
+fn fresnel_dielectric(cos_i: F8, eta_i: F8, eta_t: F8) -> F8 {
+    let cos_i = unit(cos_i);
+    let sin_t = eta_i / eta_t * (F8::ONE - cos_i * cos_i).max(F8::ZERO).sqrt();
+    let total = sin_t.ge(F8::ONE);
+    let cos_t = (F8::ONE - sin_t * sin_t).max(F8::ZERO).sqrt();
+    let r_par = (eta_t * cos_i - eta_i * cos_t) / (eta_t * cos_i + eta_i * cos_t);
+    let r_perp = (eta_i * cos_i - eta_t * cos_t) / (eta_i * cos_i + eta_t * cos_t);
+    F8::select(total, F8::ONE, F8::splat(0.5) * (r_par * r_par + r_perp * r_perp))
+}
+
+/// Phong of the hit lanes: `emission + K_a I_a + Σ visible lights (K_d I max(0, L·N) + K_s I
+/// max(0, R·V)^n)`, one shadow packet per light. Returns the colour and the shadow rays traced.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn local(s: &Shading, surf: &Surfaces8, m: &Materials8, albedo: V8, wo: V8, ng: V8, ns: V8, lanes: M8) -> (V8, u64) {
+    let world = s.world;
+    let ambient = match world.ambient_is_constant() {
+        Some(c) => V8::splat(c),
+        None => V8::from_fn(|i| if lanes.lane(i) { world.ambient(ns.lane(i)) } else { Rgb::ZERO }),
+    };
+    let mut c = m.emission + (ambient * albedo).scale(m.ambient);
+    let mut shadows = 0;
+    for light in &s.lights {
+        let (wi, distance, radiance, lit) = light.sample(surf.position);
+        let cos_l = ns.dot(wi);
+        // Lights below the geometric surface are not seen, whatever the shading normal says.
+        let seen = lanes & lit & cos_l.gt(F8::ZERO) & ng.dot(wi).gt(F8::ZERO);
+        if seen.none() {
+            continue;
+        }
+        shadows += u64::from(seen.bits().count_ones());
+        let finite = distance.lt(F8::splat(f32::INFINITY));
+        // SurfaceHit::spawn_ray_to (a point light's position) or spawn_ray (a direction).
+        let target = surf.position + wi.scale(distance);
+        let aim = V8::select(finite, target - surf.position, wi);
+        let origin = offset_ray_origin8(surf.position, surf.p_error, surf.geometric_normal, aim);
+        let to_target = target - origin;
+        let dist = to_target.dot(to_target).sqrt();
+        let dir = V8::select(finite, V8::new(to_target.x / dist, to_target.y / dist, to_target.z / dist), wi);
+        let tmax = F8::select(finite, dist, F8::splat(f32::INFINITY));
+        let shadow = Rays8 { origin, dir, tmin: F8::ZERO, tmax };
+        let vis = world.transmittance_batch(&shadow, seen);
+        let visible = seen & !(vis.x.eq(F8::ZERO) & vis.y.eq(F8::ZERO) & vis.z.eq(F8::ZERO));
+        if visible.none() {
+            continue;
+        }
+        let r = reflect(-wi, ns);
+        // R·V ≤ 0 gives 0^n = 0 for n > 0 (no power needed).
+        let r_dot_v = r.dot(wo);
+        let wants = m.specular.gt(F8::ZERO) & (r_dot_v.gt(F8::ZERO) | m.shininess.le(F8::ZERO)) & visible;
+        let mut spec = F8::ZERO;
+        if wants.any() {
+            let base = r_dot_v.max(F8::ZERO);
+            let fast = wants & m.shininess.gt(F8::ZERO) & base.le(F8::ONE);
+            spec = F8::select(fast, pow8_unit(base, m.shininess) * m.specular, F8::ZERO);
+            for i in 0..LANES {
+                if wants.lane(i) && !fast.lane(i) {
+                    spec[i] = base[i].powf(m.shininess[i]) * m.specular[i];
+                }
+            }
+        }
+        let term = vis * radiance * (albedo.scale(m.diffuse * cos_l) + V8::new(spec, spec, spec));
+        c = V8::select(visible, c + term, c);
+    }
+    (c, shadows)
+}
