@@ -1,8 +1,8 @@
 //! Eight rays at once, structure of arrays: the batch API the batched integrators query
 //! (Whitted packets and streams now; the wavefront path tracer next).
 //!
-//! A batch is [`Rays8`] (origins, directions and intervals as lane planes) with an active-lane
-//! mask ([`M8`]): inactive lanes are neither tested nor written. Spheres and planes are tested
+//! A batch is [`Rays8<I>`] (origins, directions and intervals as lane planes) with an active-lane
+//! mask ([`M8<I>`]): inactive lanes are neither tested nor written. Spheres and planes are tested
 //! across the eight rays in one pass ([`sphere8`], [`plane8`], [`sphere_crossings8`]), each lane
 //! performing exactly the float operations of the scalar tests in [`crate::primitives`], so
 //! batches and single rays agree bit for bit. Meshes answer through
@@ -13,23 +13,23 @@
 //! Like [`glint_core::lanes`], everything here is `#[inline(always)]` and ISA-neutral: callers
 //! compile it inside their own baseline and AVX2 entry points.
 
+use crate::lanes::{F8, Isa, LANES, M8, U8x, V8};
 use crate::{Hit, MeshBvh};
-use glint_core::lanes::{F8, LANES, M8, U8x, V8};
 use glint_core::{Ray, Vec3};
 
 /// Eight rays: lane `i` is the ray `origin + t·dir`, `t` in `(tmin, tmax]`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Rays8 {
-    pub origin: V8,
-    pub dir: V8,
-    pub tmin: F8,
-    pub tmax: F8,
+pub struct Rays8<I: Isa> {
+    pub origin: V8<I>,
+    pub dir: V8<I>,
+    pub tmin: F8<I>,
+    pub tmax: F8<I>,
 }
 
-impl Rays8 {
+impl<I: Isa> Rays8<I> {
     #[inline(always)]
     #[must_use]
-    pub fn from_rays(rays: &[Ray; LANES]) -> Rays8 {
+    pub fn from_rays(rays: &[Ray; LANES]) -> Rays8<I> {
         Rays8 {
             origin: V8::from_fn(|i| rays[i].origin),
             dir: V8::from_fn(|i| rays[i].dir),
@@ -49,7 +49,7 @@ impl Rays8 {
     /// accepts and no box lets through.
     #[inline(always)]
     #[must_use]
-    pub fn to_rays(&self, active: M8) -> [Ray; LANES] {
+    pub fn to_rays(&self, active: M8<I>) -> [Ray; LANES] {
         std::array::from_fn(|i| {
             let mut r = self.ray(i);
             if !active.lane(i) {
@@ -62,16 +62,20 @@ impl Rays8 {
 
 /// Closest hits of eight rays: distance, primitive and barycentrics per lane (as [`Hit`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hits8 {
-    pub t: F8,
-    pub prim: U8x,
-    pub u: F8,
-    pub v: F8,
+pub struct Hits8<I: Isa> {
+    pub t: F8<I>,
+    pub prim: U8x<I>,
+    pub u: F8<I>,
+    pub v: F8<I>,
 }
 
-impl Hits8 {
+impl<I: Isa> Hits8<I> {
     /// No lane has hit anything.
-    pub const NONE: Hits8 = Hits8 { t: F8::ZERO, prim: U8x::from_array([u32::MAX; LANES]), u: F8::ZERO, v: F8::ZERO };
+    #[inline(always)]
+    #[must_use]
+    pub fn none() -> Hits8<I> {
+        Hits8 { t: F8::zero(), prim: U8x::splat(u32::MAX), u: F8::zero(), v: F8::zero() }
+    }
 
     /// Lane `i` as a hit.
     #[inline(always)]
@@ -86,7 +90,7 @@ impl Hits8 {
 /// `disc = a (r² − |f − d b/a|²)`, with the lanes where the roots are real (`disc ≥ 0`, `a`
 /// finite and non-zero). A batch where no lane is real skips the rest.
 #[inline(always)]
-fn sphere_disc8(rays: &Rays8, dd: F8, centre: Vec3, radius: f32) -> (M8, F8, F8, F8) {
+fn sphere_disc8<I: Isa>(rays: &Rays8<I>, dd: F8<I>, centre: Vec3, radius: f32) -> (M8<I>, F8<I>, F8<I>, F8<I>) {
     let d = rays.dir;
     let f = rays.origin - V8::splat(centre);
     let r2 = F8::splat(radius * radius);
@@ -94,24 +98,24 @@ fn sphere_disc8(rays: &Rays8, dd: F8, centre: Vec3, radius: f32) -> (M8, F8, F8,
     let l = f - d.scale(b / dd);
     let disc = dd * (r2 - l.dot(l));
     // NaN compares false: such lanes have no real roots; `a == 0` or non-finite lanes neither.
-    let real = disc.ge(F8::ZERO) & dd.gt(F8::ZERO) & dd.lt(F8::splat(f32::INFINITY));
+    let real = disc.ge(F8::zero()) & dd.gt(F8::zero()) & dd.lt(F8::splat(f32::INFINITY));
     (real, disc, b, f.dot(f) - r2)
 }
 
 /// Both ordered roots from [`sphere_disc8`]'s parts, lane by lane `sphere_roots`' operations.
 #[inline(always)]
-fn sphere_roots8(dd: F8, disc: F8, b: F8, c: F8) -> (F8, F8) {
-    let q = -(b + disc.max(F8::ZERO).sqrt().copysign(b));
-    let q_zero = q.eq(F8::ZERO);
-    let t0 = F8::select(q_zero, F8::ZERO, c / q);
-    let t1 = F8::select(q_zero, F8::ZERO, q / dd);
+fn sphere_roots8<I: Isa>(dd: F8<I>, disc: F8<I>, b: F8<I>, c: F8<I>) -> (F8<I>, F8<I>) {
+    let q = -(b + disc.max(F8::zero()).sqrt().copysign(b));
+    let q_zero = q.eq(F8::zero());
+    let t0 = F8::select(q_zero, F8::zero(), c / q);
+    let t1 = F8::select(q_zero, F8::zero(), q / dd);
     let ordered = t0.le(t1);
     (F8::select(ordered, t0, t1), F8::select(ordered, t1, t0))
 }
 
 /// Lanes whose `t` lies in the ray's interval `(tmin, tmax]`.
 #[inline(always)]
-fn within(rays: &Rays8, t: F8) -> M8 {
+fn within<I: Isa>(rays: &Rays8<I>, t: F8<I>) -> M8<I> {
     t.gt(rays.tmin) & t.le(rays.tmax)
 }
 
@@ -120,11 +124,11 @@ fn within(rays: &Rays8, t: F8) -> M8 {
 /// per lane. `dd` is `dir · dir` per lane (shared by every sphere of a batch).
 #[inline(always)]
 #[must_use]
-pub fn sphere8(rays: &Rays8, dd: F8, active: M8, centre: Vec3, radius: f32) -> (M8, F8) {
+pub fn sphere8<I: Isa>(rays: &Rays8<I>, dd: F8<I>, active: M8<I>, centre: Vec3, radius: f32) -> (M8<I>, F8<I>) {
     let (real, disc, b, c) = sphere_disc8(rays, dd, centre, radius);
     let real = real & active;
     if real.none() {
-        return (M8::NONE, F8::ZERO);
+        return (M8::none_set(), F8::zero());
     }
     let (t0, t1) = sphere_roots8(dd, disc, b, c);
     let in0 = within(rays, t0) & real & active;
@@ -136,14 +140,14 @@ pub fn sphere8(rays: &Rays8, dd: F8, active: M8, centre: Vec3, radius: f32) -> (
 /// [`crate::primitives::sphere_crossings`] per lane; 0 on inactive lanes.
 #[inline(always)]
 #[must_use]
-pub fn sphere_crossings8(rays: &Rays8, dd: F8, active: M8, centre: Vec3, radius: f32) -> F8 {
+pub fn sphere_crossings8<I: Isa>(rays: &Rays8<I>, dd: F8<I>, active: M8<I>, centre: Vec3, radius: f32) -> F8<I> {
     let (real, disc, b, c) = sphere_disc8(rays, dd, centre, radius);
     let live = real & active;
     if live.none() {
-        return F8::ZERO;
+        return F8::zero();
     }
     let (t0, t1) = sphere_roots8(dd, disc, b, c);
-    let one = |m: M8| F8::select(m & live, F8::ONE, F8::ZERO);
+    let one = |m: M8<I>| F8::select(m & live, F8::one(), F8::zero());
     one(within(rays, t0)) + one(within(rays, t1))
 }
 
@@ -151,11 +155,42 @@ pub fn sphere_crossings8(rays: &Rays8, dd: F8, active: M8, centre: Vec3, radius:
 /// [`crate::primitives::intersect_plane`] per lane (no hit parallel to the plane).
 #[inline(always)]
 #[must_use]
-pub fn plane8(rays: &Rays8, active: M8, normal: Vec3, offset: f32) -> (M8, F8) {
+pub fn plane8<I: Isa>(rays: &Rays8<I>, active: M8<I>, normal: Vec3, offset: f32) -> (M8<I>, F8<I>) {
     let n = V8::splat(normal);
     let denom = rays.dir.dot(n);
     let t = -(rays.origin.dot(n) + F8::splat(offset)) / denom;
-    (within(rays, t) & !denom.eq(F8::ZERO) & active, t)
+    (within(rays, t) & !denom.eq(F8::zero()) & active, t)
+}
+
+/// [`glint_core::float::offset_ray_origin`] of eight points at once: lane by lane the same operations and the
+/// same one-ulp rounding (as bit arithmetic across lanes), so the same bits.
+#[inline(always)]
+#[must_use]
+pub fn offset_ray_origin8<I: Isa>(p: V8<I>, p_error: V8<I>, n: V8<I>, w: V8<I>) -> V8<I> {
+    let d = n.abs().dot(p_error);
+    let offset = n.scale(d);
+    let offset = V8::select(w.dot(n).lt(F8::zero()), -offset, offset);
+    let po = p + offset;
+    V8::new(round_away8(po.x, offset.x), round_away8(po.y, offset.y), round_away8(po.z, offset.z))
+}
+
+/// Per lane: [`glint_core::float::next_float_up`] of `v` where `o` > 0, [`glint_core::float::next_float_down`] where `o` < 0, `v`
+/// itself where `o` is 0 or NaN.
+#[inline(always)]
+fn round_away8<I: Isa>(v: F8<I>, o: F8<I>) -> F8<I> {
+    let bits = v.to_bits();
+    let one = U8x::splat(1);
+    let (plus, minus) = (bits.wrapping_add(one), bits.wrapping_sub(one));
+    let zero = v.eq(F8::zero());
+    let (pos, neg) = (v.gt(F8::zero()), v.lt(F8::zero()));
+    // Up: away from −∞ (±0 → the smallest positive subnormal); +∞ and NaN stay.
+    let up = U8x::select(pos, plus, U8x::select(neg, minus, U8x::select(zero, one, bits)));
+    let up = U8x::select(v.eq(F8::splat(f32::INFINITY)), bits, up);
+    // Down: toward −∞ (±0 → the smallest negative subnormal); −∞ and NaN stay.
+    let down = U8x::select(pos, minus, U8x::select(neg, plus, U8x::select(zero, U8x::splat(0x8000_0001), bits)));
+    let down = U8x::select(v.eq(F8::splat(f32::NEG_INFINITY)), bits, down);
+    let rounded = U8x::select(o.gt(F8::zero()), up, U8x::select(o.lt(F8::zero()), down, bits));
+    F8::from_bits(rounded)
 }
 
 impl MeshBvh {
@@ -163,7 +198,7 @@ impl MeshBvh {
     /// hit, whose hits are written into `out` (other lanes untouched). Lane `i` equals
     /// [`MeshBvh::intersect`] of `rays.ray(i)` bit for bit.
     #[inline]
-    pub fn intersect_batch(&self, rays: &Rays8, active: M8, out: &mut Hits8) -> M8 {
+    pub fn intersect_batch<I: Isa>(&self, rays: &Rays8<I>, active: M8<I>, out: &mut Hits8<I>) -> M8<I> {
         let mut found = [None; LANES];
         self.intersect8(&rays.to_rays(active), &mut found);
         let mut hit = 0;
@@ -179,7 +214,7 @@ impl MeshBvh {
     /// The active lanes of `rays` that hit anything in their interval (any hit), as
     /// [`MeshBvh::occluded`] per lane.
     #[inline]
-    pub fn occluded_batch(&self, rays: &Rays8, active: M8) -> M8 {
+    pub fn occluded_batch<I: Isa>(&self, rays: &Rays8<I>, active: M8<I>) -> M8<I> {
         let mut blocked = [false; LANES];
         self.occluded8(&rays.to_rays(active), &mut blocked);
         M8::from_fn(|i| blocked[i]) & active
@@ -191,8 +226,10 @@ impl MeshBvh {
 mod tests {
     use super::*;
     use crate::BuildOptions;
+    use crate::lanes::Sse;
     use crate::primitives::{intersect_plane, intersect_sphere, sphere_crossings};
     use crate::procedural::{Rng, displaced_sphere};
+    use glint_core::float::{gamma, next_float_down, next_float_up, offset_ray_origin};
 
     fn random_rays(rng: &mut Rng, spread: f32) -> [Ray; LANES] {
         std::array::from_fn(|i| {
@@ -203,14 +240,32 @@ mod tests {
         })
     }
 
+    struct Checks;
+
+    impl crate::lanes::LaneKernel for Checks {
+        type Output = ();
+        #[inline(always)]
+        fn run<I: Isa>(self) {
+            lanes_equal_the_scalar_primitive_tests::<I>();
+            planes_equal_the_scalar_test::<I>();
+            mesh_batches_equal_single_rays::<I>();
+        }
+    }
+
+    /// Every check below, with each instruction set this CPU has.
+    #[test]
+    fn batches_equal_single_rays_on_every_isa() {
+        crate::lanes::dispatch(Checks, true);
+        crate::lanes::dispatch(Checks, false);
+    }
+
     /// Spheres and their crossings across lanes equal the scalar tests bit for bit, and
     /// inactive lanes never hit.
-    #[test]
-    fn lanes_equal_the_scalar_primitive_tests() {
+    fn lanes_equal_the_scalar_primitive_tests<I: Isa>() {
         let mut rng = Rng::new(9);
         for _ in 0..4000 {
             let rays = random_rays(&mut rng, 10.0);
-            let batch = Rays8::from_rays(&rays);
+            let batch = Rays8::<I>::from_rays(&rays);
             let dd = batch.dir.dot(batch.dir);
             let active = M8::from_bits((rng.next_f32() * 256.0) as u32 & 0xff);
             let (c, r) = ((rng.next_vec3() - 0.5) * 6.0, 0.1 + rng.next_f32() * 1.5);
@@ -226,12 +281,11 @@ mod tests {
     }
 
     /// The plane test against the scalar one on rays aimed at it.
-    #[test]
-    fn planes_equal_the_scalar_test() {
+    fn planes_equal_the_scalar_test<I: Isa>() {
         let mut rng = Rng::new(3);
         for _ in 0..4000 {
             let rays = random_rays(&mut rng, 4.0);
-            let batch = Rays8::from_rays(&rays);
+            let batch = Rays8::<I>::from_rays(&rays);
             let (n, offset) = (rng.next_dir(), rng.next_f32() - 0.5);
             let active = M8::from_bits((rng.next_f32() * 256.0) as u32 & 0xff);
             let (hit, t) = plane8(&batch, active, n, offset);
@@ -243,16 +297,15 @@ mod tests {
     }
 
     /// Mesh batches equal single-ray queries on the active lanes and leave the rest alone.
-    #[test]
-    fn mesh_batches_equal_single_rays() {
+    fn mesh_batches_equal_single_rays<I: Isa>() {
         let m = displaced_sphere(4000);
         let bvh = MeshBvh::build(&m.positions, &m.triangles, &BuildOptions::default());
         let mut rng = Rng::new(11);
         for _ in 0..2000 {
             let rays = random_rays(&mut rng, 5.0);
-            let batch = Rays8::from_rays(&rays);
+            let batch = Rays8::<I>::from_rays(&rays);
             let active = M8::from_bits((rng.next_f32() * 256.0) as u32 & 0xff);
-            let mut out = Hits8::NONE;
+            let mut out = Hits8::<I>::none();
             let hit = bvh.intersect_batch(&batch, active, &mut out);
             let blocked = bvh.occluded_batch(&batch, active);
             for i in 0..LANES {
@@ -262,6 +315,38 @@ mod tests {
                     assert_eq!(out.prim[i], u32::MAX, "inactive lane {i} written");
                 }
                 assert_eq!(blocked.lane(i), active.lane(i) && bvh.occluded(&rays[i]), "occluded lane {i}");
+            }
+        }
+    }
+
+    #[test]
+    fn eight_offsets_equal_the_scalar_offset() {
+        let p = V8::<Sse>::from_fn(|i| Vec3::new(i as f32 * 1.7 - 3.0, 0.25 * i as f32, -(i as f32).powi(3)));
+        let e = V8::from_fn(|i| Vec3::splat(gamma(5) * (1.0 + i as f32)));
+        let n = V8::from_fn(|i| Vec3::new((i as f32).sin(), (i as f32).cos(), 0.3).normalize());
+        let w = V8::from_fn(|i| if i % 2 == 0 { Vec3::Y } else { -Vec3::X });
+        let o = offset_ray_origin8(p, e, n, w);
+        for i in 0..LANES {
+            assert_eq!(o.lane(i), offset_ray_origin(p.lane(i), e.lane(i), n.lane(i), w.lane(i)), "lane {i}");
+        }
+    }
+
+    #[test]
+    fn eight_roundings_equal_the_scalar_steps() {
+        let specials =
+            [0.0f32, -0.0, 1.0, -1.0, f32::MIN_POSITIVE, -f32::MIN_POSITIVE, 1e-45, -1e-45, f32::MAX, f32::MIN];
+        let more = [f32::INFINITY, f32::NEG_INFINITY, f32::NAN, 3.5e7, -2.25];
+        for &v in specials.iter().chain(&more) {
+            for o in [1.0f32, -1.0, 0.0] {
+                let got = round_away8::<Sse>(F8::splat(v), F8::splat(o))[0];
+                let want = if o > 0.0 {
+                    next_float_up(v)
+                } else if o < 0.0 {
+                    next_float_down(v)
+                } else {
+                    v
+                };
+                assert_eq!(got.to_bits(), want.to_bits(), "v {v:e} o {o}");
             }
         }
     }

@@ -19,6 +19,7 @@
 pub mod batch;
 pub mod build;
 pub mod bvh2;
+pub mod lanes;
 mod mesh;
 pub mod primitives;
 pub mod procedural;

@@ -10,7 +10,6 @@ pub mod chi2;
 pub mod colour;
 pub mod float;
 pub mod frame;
-pub mod lanes;
 pub mod random;
 pub mod ray;
 pub mod sampling;

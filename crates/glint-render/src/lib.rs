@@ -7,9 +7,7 @@
 //! every front end calls: a scene, a camera, [`ImageSettings`] and a [`Mode`] in; a film and
 //! [`FrameStats`] out. Mode-specific names live in their module (`path::PathSettings`,
 //! `points::PointSettings`, ...); each public name has one path.
-// One measured hot kernel allows unsafe: the AVX2 build of the batched Whitted tracer
-// (whitted/isa.rs), entered after runtime detection, its SAFETY noted there.
-#![deny(unsafe_code)]
+#![forbid(unsafe_code)]
 #![warn(clippy::must_use_candidate, clippy::missing_errors_doc, clippy::missing_panics_doc)]
 
 mod bands;

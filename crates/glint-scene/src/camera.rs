@@ -1,7 +1,6 @@
 //! The pinhole camera (DESIGN.md §1): position, forward, up, field of view; aspect from the image.
 //! World convention: right-handed, +Y up, the default camera looks along −Z with +X to its right.
 
-use glint_core::lanes::{F8, V8};
 use glint_core::{Ray, Vec2, Vec3};
 
 /// Field of view, in degrees, along one image axis.
@@ -81,14 +80,11 @@ impl CameraRays {
         Ray::new(self.origin, dir)
     }
 
-    /// The unit directions of the primary rays through eight image positions (`x`, `y` in
-    /// pixels): [`CameraRays::ray`] lane by lane, the same operations (the origin is
-    /// [`CameraRays::origin`] for all).
-    #[inline(always)]
+    /// The image plane as [`CameraRays::ray`] uses it: the direction toward pixel position
+    /// (x, y) is `top_left + right_step·x + down_step·y`, normalised.
     #[must_use]
-    pub fn dirs8(&self, x: F8, y: F8) -> V8 {
-        (V8::splat(self.top_left) + V8::splat(self.right_step).scale(x) + V8::splat(self.down_step).scale(y))
-            .normalize()
+    pub fn image_plane(&self) -> (Vec3, Vec3, Vec3) {
+        (self.top_left, self.right_step, self.down_step)
     }
 
     /// Linear eye-space depth (distance along the view axis) of a world point.
@@ -121,15 +117,5 @@ mod tests {
         let edge = rays.ray(Vec2::new(200.0, 50.0));
         // 45° to the right of forward at the right edge.
         assert!((edge.dir.x - edge.dir.z.abs()).abs() < 1e-5);
-    }
-
-    #[test]
-    fn eight_directions_equal_single_rays() {
-        let rays = Camera::default().rays(64, 48);
-        let (x, y) = (F8::from_fn(|i| i as f32 * 7.3 + 0.5), F8::from_fn(|i| 47.5 - i as f32 * 5.1));
-        let d = rays.dirs8(x, y);
-        for i in 0..8 {
-            assert_eq!(d.lane(i), rays.ray(Vec2::new(x[i], y[i])).dir, "lane {i}");
-        }
     }
 }

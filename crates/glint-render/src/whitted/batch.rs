@@ -21,7 +21,7 @@ use crate::settings::{ImageSettings, WhittedSettings};
 use crate::stats::{BandStats, RayCounts};
 use crate::world::World;
 use glint_accel::batch::Rays8;
-use glint_core::lanes::{F8, LANES, M8, U8x, V8};
+use glint_accel::lanes::{F8, Isa, LANES, M8, U8x, V8};
 use glint_core::random::SampleStream;
 use glint_core::sampling::stratified_2d;
 use glint_core::{Rgb, Vec2, Vec3};
@@ -31,36 +31,36 @@ use glint_scene::{Camera, CameraRays};
 const TILE_W: usize = 16;
 
 /// The per-lane state of a batch of rays beside the rays themselves.
-pub(super) struct Lanes {
-    pub weight: V8,
+pub(super) struct Lanes<I: Isa> {
+    pub weight: V8<I>,
     /// Ray cone: footprint width at the origin and spread angle.
-    pub width: F8,
-    pub spread: F8,
+    pub width: F8<I>,
+    pub spread: F8<I>,
     /// The sample (within the tile) whose tree the ray belongs to.
-    pub sample: U8x,
+    pub sample: U8x<I>,
 }
 
 /// Eight rays of a stream with their lane state (one block of the stream's storage).
 #[derive(Clone, Copy, Default)]
-struct Block {
-    origin: V8,
-    dir: V8,
-    weight: V8,
-    width: F8,
-    spread: F8,
-    sample: U8x,
+struct Block<I: Isa> {
+    origin: V8<I>,
+    dir: V8<I>,
+    weight: V8<I>,
+    width: F8<I>,
+    spread: F8<I>,
+    sample: U8x<I>,
 }
 
 /// The rays of one depth level of a tile, in blocks of eight (structure of arrays inside a
 /// block): a batch is one block, read as it is; spawned rays are appended lane by lane, so
 /// the blocks stay full however the trees diverge.
 #[derive(Default)]
-pub(super) struct Stream {
-    blocks: Vec<Block>,
+pub(super) struct Stream<I: Isa> {
+    blocks: Vec<Block<I>>,
     len: usize,
 }
 
-impl Stream {
+impl<I: Isa> Stream<I> {
     fn clear(&mut self) {
         self.len = 0;
     }
@@ -74,13 +74,13 @@ impl Stream {
     #[allow(clippy::too_many_arguments)]
     pub(super) fn push_lanes(
         &mut self,
-        lanes: M8,
-        origin: V8,
-        dir: V8,
-        weight: V8,
-        width: F8,
-        spread: F8,
-        sample: U8x,
+        lanes: M8<I>,
+        origin: V8<I>,
+        dir: V8<I>,
+        weight: V8<I>,
+        width: F8<I>,
+        spread: F8<I>,
+        sample: U8x<I>,
     ) {
         let count = lanes.bits().count_ones() as usize;
         let needed = (self.len + count).div_ceil(LANES);
@@ -107,9 +107,9 @@ impl Stream {
 
     /// Rays `start..start + 8` (`start` a multiple of 8; the lanes past the end inactive).
     #[inline(always)]
-    fn batch(&self, start: usize) -> (Rays8, Lanes, M8) {
+    fn batch(&self, start: usize) -> (Rays8<I>, Lanes<I>, M8<I>) {
         let b = &self.blocks[start / LANES];
-        let rays = Rays8 { origin: b.origin, dir: b.dir, tmin: F8::ZERO, tmax: F8::splat(f32::INFINITY) };
+        let rays = Rays8 { origin: b.origin, dir: b.dir, tmin: F8::zero(), tmax: F8::splat(f32::INFINITY) };
         let lanes = Lanes { weight: b.weight, width: b.width, spread: b.spread, sample: b.sample };
         (rays, lanes, M8::first(self.len - start))
     }
@@ -153,9 +153,9 @@ impl TileSums {
 
 /// A thread's reusable state.
 #[derive(Default)]
-pub(super) struct Scratch {
-    current: Stream,
-    next: Stream,
+pub(super) struct Scratch<I: Isa> {
+    current: Stream<I>,
+    next: Stream<I>,
     sums: TileSums,
 }
 
@@ -203,13 +203,13 @@ impl<'a> Frame<'a> {
     }
 }
 
-/// Render one band of rows (band `band_index`, its pixels `band`) tile by tile. Forced
-/// inline: the ISA entry points (`isa.rs`) compile it, and everything it calls, once for the
-/// baseline and once for AVX2.
+/// Render one band of rows (band `band_index`, its pixels `band`) tile by tile, with the
+/// lanes of `I`. Forced inline: `glint_accel::lanes::dispatch` compiles it, and everything it
+/// calls, once per instruction set.
 #[inline(always)]
-pub(super) fn render_band(
+pub(super) fn render_band<I: Isa>(
     frame: &Frame,
-    scratch: &mut Scratch,
+    scratch: &mut Scratch<I>,
     band_index: usize,
     rows: usize,
     band: &mut [FilmPixel],
@@ -228,9 +228,9 @@ pub(super) fn render_band(
 /// One tile: primary stream, depth levels, then the pixels. Returns the samples dropped.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn render_tile(
+fn render_tile<I: Isa>(
     frame: &Frame,
-    scratch: &mut Scratch,
+    scratch: &mut Scratch<I>,
     x0: usize,
     y0: usize,
     tile_w: usize,
@@ -283,16 +283,19 @@ fn render_tile(
 /// order, samples one after the other; sample `k` of the tile's pixel `p` is entry
 /// `k · pixels + p` of the sums.
 #[inline(always)]
-fn primary_stream(frame: &Frame, x0: usize, y0: usize, tile_w: usize, tile_h: usize, out: &mut Stream) {
+fn primary_stream<I: Isa>(frame: &Frame, x0: usize, y0: usize, tile_w: usize, tile_h: usize, out: &mut Stream<I>) {
     let n = frame.samples_per_side;
     let pixels = tile_w * tile_h;
     let origin = V8::splat(frame.rays.origin);
     let forward = V8::splat(frame.forward);
+    // CameraRays::ray across lanes: the same operations, so the same directions.
+    let (top_left, right, down) = frame.rays.image_plane();
+    let (top_left, right, down) = (V8::splat(top_left), V8::splat(right), V8::splat(down));
     for s in 0..n * n {
         for by in (0..tile_h).step_by(2) {
             for bx in (0..tile_w).step_by(4) {
                 let mut live = 0u32;
-                let (mut px, mut py) = (F8::ZERO, F8::ZERO);
+                let (mut px, mut py) = (F8::zero(), F8::zero());
                 let mut sample = U8x::splat(0);
                 for i in 0..LANES {
                     let (tx, ty) = (bx + i % 4, by + i / 4);
@@ -305,10 +308,10 @@ fn primary_stream(frame: &Frame, x0: usize, y0: usize, tile_w: usize, tile_h: us
                     sample[i] = (s as usize * pixels + ty * tile_w + tx) as u32;
                     live |= 1 << i;
                 }
-                let dir = frame.rays.dirs8(px, py);
+                let dir = (top_left + right.scale(px) + down.scale(py)).normalize();
                 let cos = dir.dot(forward);
                 let spread = F8::splat(frame.centre_cone) * cos * cos.sqrt();
-                out.push_lanes(M8::from_bits(live), origin, dir, V8::splat1(1.0), F8::ZERO, spread, sample);
+                out.push_lanes(M8::from_bits(live), origin, dir, V8::splat1(1.0), F8::zero(), spread, sample);
             }
         }
     }

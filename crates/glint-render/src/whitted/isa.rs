@@ -1,58 +1,33 @@
-//! The crate's only `unsafe`: the batched Whitted tracer compiled a second time for AVX2.
-//!
-//! `batch.rs` and everything it calls on a hot path (`shade8.rs`, the world's batch queries,
-//! glint-core's lanes, glint-accel's batch tests) are `#[inline(always)]` and ISA-neutral, so
-//! inlined into the `#[target_feature(enable = "avx2,fma")]` function below they become
-//! 256-bit code, and inlined into the plain call they become SSE2 code (the x86-64 baseline).
-//! No fused multiply-add is written anywhere in them, so both give the same bits. Measured in
-//! BENCHMARKS.md §3 (the AVX2 build against the baseline build on the benchmark scene).
-
-#![allow(unsafe_code)]
+//! Which instruction set a band is traced with: the batched tracer is one generic kernel
+//! (`batch.rs` over `glint_accel::lanes`), which `glint_accel::lanes::dispatch` instantiates
+//! with AVX2 where the CPU has it (inside a `#[target_feature]` entry, after runtime detection)
+//! and with the SSE baseline otherwise. Both give the same bits (no fused multiply-add
+//! anywhere); the baseline can be forced for measurements and for the test that checks that.
 
 use super::batch::{Frame, Scratch, render_band};
 use crate::film::FilmPixel;
 use crate::stats::BandStats;
+use glint_accel::lanes::{Isa, LaneKernel, dispatch};
 
-/// Whether this machine runs the AVX2 build (AVX2 and FMA, detected once by std).
-#[must_use]
-pub(crate) fn avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
+/// One band of the batched tracer.
+struct Band<'a, 'f> {
+    frame: &'a Frame<'f>,
+    index: usize,
+    rows: usize,
+    pixels: &'a mut [FilmPixel],
+}
+
+impl LaneKernel for Band<'_, '_> {
+    type Output = BandStats;
+
+    #[inline(always)]
+    fn run<I: Isa>(self) -> BandStats {
+        let mut scratch = Scratch::<I>::default();
+        render_band(self.frame, &mut scratch, self.index, self.rows, self.pixels)
     }
 }
 
-/// One band with the fastest build this machine runs (`baseline` forces the plain one, for
-/// the measurement and the test that both agree).
-pub(super) fn band(
-    frame: &Frame,
-    band_index: usize,
-    rows: usize,
-    pixels: &mut [FilmPixel],
-    baseline: bool,
-) -> BandStats {
-    let mut scratch = Scratch::default();
-    #[cfg(target_arch = "x86_64")]
-    if !baseline && avx2() {
-        // SAFETY: `band_avx2` only needs AVX2 and FMA, which `avx2()` has just detected on this
-        // CPU.
-        return unsafe { band_avx2(frame, &mut scratch, band_index, rows, pixels) };
-    }
-    render_band(frame, &mut scratch, band_index, rows, pixels)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn band_avx2(
-    frame: &Frame,
-    scratch: &mut Scratch,
-    band_index: usize,
-    rows: usize,
-    pixels: &mut [FilmPixel],
-) -> BandStats {
-    render_band(frame, scratch, band_index, rows, pixels)
+/// One band with the fastest build this machine runs (`baseline` forces SSE).
+pub(super) fn band(frame: &Frame, index: usize, rows: usize, pixels: &mut [FilmPixel], baseline: bool) -> BandStats {
+    dispatch(Band { frame, index, rows, pixels }, baseline)
 }

@@ -5,14 +5,14 @@
 //! Every formula is the scalar tracer's (`tracer.rs`), lane by lane and in the same order,
 //! with masks where the scalar code branches: misses, material classes (Schlick, transparent,
 //! Fresnel), total internal reflection, the contribution threshold. Two things differ by a
-//! rounding: the Phong power is [`pow8_unit`] (relative error < 3e-5) instead of `powf`, and
+//! rounding: the Phong power is [`pow_unit`] (relative error < 3e-5) instead of `powf`, and
 //! contributions reach a sample in depth order instead of the scalar stack's order.
 
 use super::batch::{Lanes, Stream, TileSums};
 use crate::world::World;
 use glint_accel::batch::Rays8;
-use glint_core::float::offset_ray_origin8;
-use glint_core::lanes::{F8, LANES, M8, U8x, V8, pow8_unit};
+use glint_accel::batch::offset_ray_origin8;
+use glint_accel::lanes::{F8, Isa, LANES, M8, U8x, V8, pow_unit};
 use glint_core::{Rgb, Vec3};
 use glint_scene::{Attenuation, Light, Material, Sky, Texture};
 
@@ -55,28 +55,28 @@ impl MaterialTable {
 }
 
 /// One material per lane.
-struct Materials8 {
-    colour: V8,
-    ambient: F8,
-    diffuse: F8,
-    specular: F8,
-    shininess: F8,
-    reflectivity: F8,
-    transparency: F8,
-    ior: F8,
-    fresnel: M8,
-    emission: V8,
-    f0: V8,
-    /// Lanes whose material reflects by Schlick's Fresnel (`reflection_f0`).
-    schlick: M8,
+struct Materials8<I: Isa> {
+    colour: V8<I>,
+    ambient: F8<I>,
+    diffuse: F8<I>,
+    specular: F8<I>,
+    shininess: F8<I>,
+    reflectivity: F8<I>,
+    transparency: F8<I>,
+    ior: F8<I>,
+    fresnel: M8<I>,
+    emission: V8<I>,
+    f0: V8<I>,
+    /// Lanes<I> whose material reflects by Schlick's Fresnel (`reflection_f0`).
+    schlick: M8<I>,
 }
 
-impl Materials8 {
+impl<I: Isa> Materials8<I> {
     /// The materials of the `lanes` (one load per field when they share one).
     #[inline(always)]
-    fn gather(t: &MaterialTable, index: U8x, lanes: M8) -> Materials8 {
+    fn gather(t: &MaterialTable, index: U8x<I>, lanes: M8<I>) -> Materials8<I> {
         let first = index[lanes.bits().trailing_zeros() as usize % LANES] as usize;
-        let shared = (index.eq(U8x::splat(first as u32)) | !lanes) == M8::ALL;
+        let shared = (index.eq(U8x::splat(first as u32)) | !lanes) == M8::all();
         let f = |v: &[f32]| {
             if shared { F8::splat(v[first]) } else { F8::from_fn(|i| v[index[i] as usize]) }
         };
@@ -162,16 +162,16 @@ impl LightLanes {
     /// `Light::sample_at` of eight points: the unit direction toward the light, the distance
     /// (∞ for a directional light), the radiance, and the lanes the light reaches.
     #[inline(always)]
-    fn sample(&self, p: V8) -> (V8, F8, V8, M8) {
+    fn sample<I: Isa>(&self, p: V8<I>) -> (V8<I>, F8<I>, V8<I>, M8<I>) {
         if self.kind == LightKind::Directional {
             let radiance = V8::splat(self.colour * self.intensity);
-            return (V8::splat(-self.direction), F8::splat(f32::INFINITY), radiance, M8::ALL);
+            return (V8::splat(-self.direction), F8::splat(f32::INFINITY), radiance, M8::all());
         }
         let d = V8::splat(self.position) - p;
         let dist = d.dot(d).sqrt();
-        let reaches = dist.gt(F8::ZERO);
+        let reaches = dist.gt(F8::zero());
         let wi = V8::new(d.x / dist, d.y / dist, d.z / dist);
-        let mut fall = if self.inverse_square { F8::ONE / (dist * dist) } else { F8::ONE };
+        let mut fall = if self.inverse_square { F8::one() / (dist * dist) } else { F8::one() };
         let mut lit = reaches;
         if self.kind == LightKind::Spot {
             let cos = (-wi).dot(V8::splat(self.direction));
@@ -179,11 +179,11 @@ impl LightLanes {
             let x = (cos - F8::splat(co)) / F8::splat(ci - co);
             let smooth = x * x * (F8::splat(3.0) - F8::splat(2.0) * x);
             let cone = if ci <= co {
-                F8::select(cos.ge(F8::splat(ci)), F8::ONE, F8::ZERO)
+                F8::select(cos.ge(F8::splat(ci)), F8::one(), F8::zero())
             } else {
-                F8::select(cos.ge(F8::splat(ci)), F8::ONE, F8::select(cos.le(F8::splat(co)), F8::ZERO, smooth))
+                F8::select(cos.ge(F8::splat(ci)), F8::one(), F8::select(cos.le(F8::splat(co)), F8::zero(), smooth))
             };
-            lit = lit & cone.gt(F8::ZERO);
+            lit = lit & cone.gt(F8::zero());
             fall *= cone;
         }
         let scale = F8::splat(self.intensity) * fall;
@@ -205,19 +205,19 @@ pub(super) struct Shading<'a> {
 
 /// `i − 2 n (n·i)`.
 #[inline(always)]
-fn reflect(i: V8, n: V8) -> V8 {
+fn reflect<I: Isa>(i: V8<I>, n: V8<I>) -> V8<I> {
     i - n.scale(F8::splat(2.0) * n.dot(i))
 }
 
 /// `x.clamp(0, 1)` as `f32::clamp` gives it for finite x.
 #[inline(always)]
-fn unit(x: F8) -> F8 {
-    x.max(F8::ZERO).min(F8::ONE)
+fn unit<I: Isa>(x: F8<I>) -> F8<I> {
+    x.max(F8::zero()).min(F8::one())
 }
 
 /// The surface colour (material colour × texture) of the hit lanes.
 #[inline(always)]
-fn albedo(s: &Shading, m: &Materials8, surf: &Surfaces8, lanes: M8) -> V8 {
+fn albedo<I: Isa>(s: &Shading, m: &Materials8<I>, surf: &Surfaces8<I>, lanes: M8<I>) -> V8<I> {
     let textured = M8::from_fn(|i| lanes.lane(i) && s.materials.texture[surf.material[i] as usize].is_some());
     if textured.none() {
         return m.colour;
@@ -237,7 +237,7 @@ fn albedo(s: &Shading, m: &Materials8, surf: &Surfaces8, lanes: M8) -> V8 {
                 let cy = (surf.uv[1] / F8::splat(*size)).floor();
                 let sum = cx + cy;
                 let parity = sum - F8::splat(2.0) * (sum * F8::splat(0.5)).floor();
-                let colour = V8::select(parity.eq(F8::ZERO), V8::splat(*even), V8::splat(*odd));
+                let colour = V8::select(parity.eq(F8::zero()), V8::splat(*even), V8::splat(*odd));
                 tex = V8::select(same, colour, tex);
             }
             t @ Texture::Image { .. } => {
@@ -255,7 +255,7 @@ fn albedo(s: &Shading, m: &Materials8, surf: &Surfaces8, lanes: M8) -> V8 {
 
 /// The sky seen by the missing lanes, each over its ray cone.
 #[inline(always)]
-pub(super) fn sky8(sky: &Sky, dir: V8, spread: F8, lanes: M8) -> V8 {
+pub(super) fn sky8<I: Isa>(sky: &Sky, dir: V8<I>, spread: F8<I>, lanes: M8<I>) -> V8<I> {
     match sky {
         Sky::Colour(c) => V8::splat(*c),
         _ => V8::from_fn(|i| if lanes.lane(i) { sky.radiance_filtered(dir.lane(i), spread[i]) } else { Rgb::ZERO }),
@@ -267,21 +267,21 @@ pub(super) fn sky8(sky: &Sky, dir: V8, spread: F8, lanes: M8) -> V8 {
 /// threshold onto `next`. Returns the shadow rays traced.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub(super) fn shade(
+pub(super) fn shade<I: Isa>(
     s: &Shading,
-    rays: &Rays8,
-    b: &Lanes,
-    surf: &Surfaces8,
-    lanes: M8,
+    rays: &Rays8<I>,
+    b: &Lanes<I>,
+    surf: &Surfaces8<I>,
+    lanes: M8<I>,
     depth: u32,
     sums: &mut TileSums,
-    next: &mut Stream,
+    next: &mut Stream<I>,
 ) -> u64 {
     let m = Materials8::gather(&s.materials, surf.material, lanes);
     let albedo = albedo(s, &m, surf, lanes);
     let wo = -rays.dir;
     // Orient the normals toward the side the ray came from.
-    let entering = surf.geometric_normal.dot(wo).ge(F8::ZERO);
+    let entering = surf.geometric_normal.dot(wo).ge(F8::zero());
     let ng = V8::select(entering, surf.geometric_normal, -surf.geometric_normal);
     let ns = V8::select(entering, surf.shading_normal, -surf.shading_normal);
     if depth == 0 {
@@ -304,14 +304,15 @@ pub(super) fn shade(
 
     // Schlick lanes: lerp(shaded, reflected, F), F = f0 + (1 − f0)(1 − cos)^5.
     let schlick = lanes & m.schlick;
-    let x = F8::ONE - cos_o;
+    let x = F8::one() - cos_o;
     let x2 = x * x;
     let fifth = x * (x2 * x2);
     let f = m.f0 + (V8::splat1(1.0) - m.f0).scale(fifth);
     // The others: local × (1 − transparency), then reflection and refraction weights.
     let plain = lanes.and_not(m.schlick);
     let weighted = b.weight * local;
-    let contribution = V8::select(schlick, weighted * (V8::splat1(1.0) - f), weighted.scale(F8::ONE - m.transparency));
+    let contribution =
+        V8::select(schlick, weighted * (V8::splat1(1.0) - f), weighted.scale(F8::one() - m.transparency));
     for i in 0..LANES {
         if lanes.lane(i) {
             sums.add(b.sample[i] as usize, contribution.lane(i));
@@ -325,28 +326,29 @@ pub(super) fn shade(
     let w = b.weight * f;
     let push = schlick & w.max_element().gt(min);
     // Dielectric weights (transparent lanes), with total internal reflection.
-    let transparent = plain & m.transparency.gt(F8::ZERO);
-    let eta_i = F8::select(entering, F8::ONE, m.ior);
-    let eta_t = F8::select(entering, m.ior, F8::ONE);
+    let transparent = plain & m.transparency.gt(F8::zero());
+    let eta_i = F8::select(entering, F8::one(), m.ior);
+    let eta_t = F8::select(entering, m.ior, F8::one());
     let eta = eta_i / eta_t;
     let i_dir = -wo;
     let cos_i = -ns.dot(i_dir);
-    let k = F8::ONE - eta * eta * (F8::ONE - cos_i * cos_i);
-    let refracts = transparent & k.ge(F8::ZERO);
-    let refract_dir = (i_dir.scale(eta) + ns.scale(eta * cos_i - k.max(F8::ZERO).sqrt())).normalize();
+    let k = F8::one() - eta * eta * (F8::one() - cos_i * cos_i);
+    let refracts = transparent & k.ge(F8::zero());
+    let refract_dir = (i_dir.scale(eta) + ns.scale(eta * cos_i - k.max(F8::zero()).sqrt())).normalize();
     let fr = fresnel_dielectric(cos_o, eta_i, eta_t);
-    let fr = F8::select(refracts, fr, F8::ONE);
+    let fr = F8::select(refracts, fr, F8::one());
     let fresnel = transparent & m.fresnel;
     let k_refl = F8::select(
         fresnel,
-        (m.reflectivity + m.transparency * fr).min(F8::ONE),
-        F8::select(transparent.and_not(refracts), (m.reflectivity + m.transparency).min(F8::ONE), m.reflectivity),
+        (m.reflectivity + m.transparency * fr).min(F8::one()),
+        F8::select(transparent.and_not(refracts), (m.reflectivity + m.transparency).min(F8::one()), m.reflectivity),
     );
-    let k_refr = F8::select(fresnel, m.transparency * (F8::ONE - fr), F8::select(refracts, m.transparency, F8::ZERO));
+    let k_refr =
+        F8::select(fresnel, m.transparency * (F8::one() - fr), F8::select(refracts, m.transparency, F8::zero()));
     let w_refl = b.weight.scale(k_refl);
-    let push_refl = plain & k_refl.gt(F8::ZERO) & w_refl.max_element().gt(min);
+    let push_refl = plain & k_refl.gt(F8::zero()) & w_refl.max_element().gt(min);
     let w_refr = b.weight.scale(k_refr);
-    let push_refr = refracts & k_refr.gt(F8::ZERO) & w_refr.max_element().gt(min);
+    let push_refr = refracts & k_refr.gt(F8::zero()) & w_refr.max_element().gt(min);
     let refr_spread = (b.spread * eta_i / eta_t - (eta_t - eta_i) / eta_t * curvature * width).abs();
 
     let reflected = push | push_refl;
@@ -364,21 +366,30 @@ pub(super) fn shade(
 
 /// Exact unpolarised dielectric Fresnel reflectance per lane (`optics::fresnel_dielectric`).
 #[inline(always)]
-fn fresnel_dielectric(cos_i: F8, eta_i: F8, eta_t: F8) -> F8 {
+fn fresnel_dielectric<I: Isa>(cos_i: F8<I>, eta_i: F8<I>, eta_t: F8<I>) -> F8<I> {
     let cos_i = unit(cos_i);
-    let sin_t = eta_i / eta_t * (F8::ONE - cos_i * cos_i).max(F8::ZERO).sqrt();
-    let total = sin_t.ge(F8::ONE);
-    let cos_t = (F8::ONE - sin_t * sin_t).max(F8::ZERO).sqrt();
+    let sin_t = eta_i / eta_t * (F8::one() - cos_i * cos_i).max(F8::zero()).sqrt();
+    let total = sin_t.ge(F8::one());
+    let cos_t = (F8::one() - sin_t * sin_t).max(F8::zero()).sqrt();
     let r_par = (eta_t * cos_i - eta_i * cos_t) / (eta_t * cos_i + eta_i * cos_t);
     let r_perp = (eta_i * cos_i - eta_t * cos_t) / (eta_i * cos_i + eta_t * cos_t);
-    F8::select(total, F8::ONE, F8::splat(0.5) * (r_par * r_par + r_perp * r_perp))
+    F8::select(total, F8::one(), F8::splat(0.5) * (r_par * r_par + r_perp * r_perp))
 }
 
 /// Phong of the hit lanes: `emission + K_a I_a + Σ visible lights (K_d I max(0, L·N) + K_s I
 /// max(0, R·V)^n)`, one shadow packet per light. Returns the colour and the shadow rays traced.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn local(s: &Shading, surf: &Surfaces8, m: &Materials8, albedo: V8, wo: V8, ng: V8, ns: V8, lanes: M8) -> (V8, u64) {
+fn local<I: Isa>(
+    s: &Shading,
+    surf: &Surfaces8<I>,
+    m: &Materials8<I>,
+    albedo: V8<I>,
+    wo: V8<I>,
+    ng: V8<I>,
+    ns: V8<I>,
+    lanes: M8<I>,
+) -> (V8<I>, u64) {
     let world = s.world;
     let ambient = match world.ambient_is_constant() {
         Some(c) => V8::splat(c),
@@ -390,7 +401,7 @@ fn local(s: &Shading, surf: &Surfaces8, m: &Materials8, albedo: V8, wo: V8, ng: 
         let (wi, distance, radiance, lit) = light.sample(surf.position);
         let cos_l = ns.dot(wi);
         // Lights below the geometric surface are not seen, whatever the shading normal says.
-        let seen = lanes & lit & cos_l.gt(F8::ZERO) & ng.dot(wi).gt(F8::ZERO);
+        let seen = lanes & lit & cos_l.gt(F8::zero()) & ng.dot(wi).gt(F8::zero());
         if seen.none() {
             continue;
         }
@@ -404,21 +415,21 @@ fn local(s: &Shading, surf: &Surfaces8, m: &Materials8, albedo: V8, wo: V8, ng: 
         let dist = to_target.dot(to_target).sqrt();
         let dir = V8::select(finite, V8::new(to_target.x / dist, to_target.y / dist, to_target.z / dist), wi);
         let tmax = F8::select(finite, dist, F8::splat(f32::INFINITY));
-        let shadow = Rays8 { origin, dir, tmin: F8::ZERO, tmax };
+        let shadow = Rays8 { origin, dir, tmin: F8::zero(), tmax };
         let vis = world.transmittance_batch(&shadow, seen);
-        let visible = seen & !(vis.x.eq(F8::ZERO) & vis.y.eq(F8::ZERO) & vis.z.eq(F8::ZERO));
+        let visible = seen & !(vis.x.eq(F8::zero()) & vis.y.eq(F8::zero()) & vis.z.eq(F8::zero()));
         if visible.none() {
             continue;
         }
         let r = reflect(-wi, ns);
         // R·V ≤ 0 gives 0^n = 0 for n > 0 (no power needed).
         let r_dot_v = r.dot(wo);
-        let wants = m.specular.gt(F8::ZERO) & (r_dot_v.gt(F8::ZERO) | m.shininess.le(F8::ZERO)) & visible;
-        let mut spec = F8::ZERO;
+        let wants = m.specular.gt(F8::zero()) & (r_dot_v.gt(F8::zero()) | m.shininess.le(F8::zero())) & visible;
+        let mut spec = F8::zero();
         if wants.any() {
-            let base = r_dot_v.max(F8::ZERO);
-            let fast = wants & m.shininess.gt(F8::ZERO) & base.le(F8::ONE);
-            spec = F8::select(fast, pow8_unit(base, m.shininess) * m.specular, F8::ZERO);
+            let base = r_dot_v.max(F8::zero());
+            let fast = wants & m.shininess.gt(F8::zero()) & base.le(F8::one());
+            spec = F8::select(fast, pow_unit(base, m.shininess) * m.specular, F8::zero());
             for i in 0..LANES {
                 if wants.lane(i) && !fast.lane(i) {
                     spec[i] = base[i].powf(m.shininess[i]) * m.specular[i];

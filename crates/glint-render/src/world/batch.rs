@@ -14,28 +14,28 @@ use super::World;
 use super::hit::{NO_PRIM, SurfaceHit};
 use super::instances::{InstanceShape, transform_ray};
 use glint_accel::batch::{Hits8, Rays8, plane8, sphere_crossings8, sphere8};
+use glint_accel::lanes::{F8, Isa, LANES, M8, U8x, V8};
 use glint_core::float::gamma;
-use glint_core::lanes::{F8, LANES, M8, U8x, V8};
 use glint_core::{Bounds3, Rgb, Vec2, Vec3};
 
 /// What eight rays hit, a lane plane per field; lanes outside `hit` hold nothing meaningful.
 /// Normals are as the geometry orients them (not flipped toward the ray), as [`SurfaceHit`].
 #[derive(Clone, Copy, Debug)]
-pub struct Surfaces8 {
-    pub hit: M8,
-    pub t: F8,
-    pub position: V8,
-    pub p_error: V8,
-    pub geometric_normal: V8,
-    pub shading_normal: V8,
-    pub uv: [F8; 2],
-    pub material: U8x,
-    pub object: U8x,
+pub struct Surfaces8<I: Isa> {
+    pub hit: M8<I>,
+    pub t: F8<I>,
+    pub position: V8<I>,
+    pub p_error: V8<I>,
+    pub geometric_normal: V8<I>,
+    pub shading_normal: V8<I>,
+    pub uv: [F8<I>; 2],
+    pub material: U8x<I>,
+    pub object: U8x<I>,
     /// Triangle index within the object's mesh; [`NO_PRIM`] for spheres and planes.
-    pub prim: U8x,
+    pub prim: U8x<I>,
 }
 
-impl Surfaces8 {
+impl<I: Isa> Surfaces8<I> {
     /// Lane `i` as a surface hit (`None` where it hit nothing).
     #[must_use]
     pub fn lane(&self, i: usize) -> Option<SurfaceHit> {
@@ -76,8 +76,8 @@ const FLAT_TOP_LIMIT: usize = 32;
 /// The lanes of `rays` whose segment `(tmin, tmax]` may meet box `b`: a conservative slab test
 /// (far distances scaled up by 1 + 4γ(3); NaN slabs leave a lane in).
 #[inline(always)]
-fn box8(rays: &Rays8, inv: &V8, active: M8, b: &Bounds3) -> M8 {
-    let slab = |o: F8, inv: F8, lo: f32, hi: f32| {
+fn box8<I: Isa>(rays: &Rays8<I>, inv: &V8<I>, active: M8<I>, b: &Bounds3) -> M8<I> {
+    let slab = |o: F8<I>, inv: F8<I>, lo: f32, hi: f32| {
         let t0 = (F8::splat(lo) - o) * inv;
         let t1 = (F8::splat(hi) - o) * inv;
         (t0.min(t1), t0.max(t1))
@@ -96,12 +96,12 @@ impl World {
     /// [`World::intersect`]`(&rays.ray(i))`.
     #[must_use]
     #[inline(always)]
-    pub fn intersect_batch(&self, rays: &Rays8, active: M8) -> Surfaces8 {
+    pub fn intersect_batch<I: Isa>(&self, rays: &Rays8<I>, active: M8<I>) -> Surfaces8<I> {
         let dd = rays.dir.dot(rays.dir);
         let mut best = rays.tmax;
         let mut kind = U8x::splat(NONE);
         let mut index = U8x::splat(0);
-        let mut tri = Hits8::NONE;
+        let mut tri = Hits8::none();
         // The sphere set: nearest, the lower index on ties (as `SphereSet::closest`).
         for &inst in &self.sphere_instances {
             let InstanceShape::Sphere { centre, radius } = self.instances[inst as usize].shape else { continue };
@@ -115,7 +115,7 @@ impl World {
             if self.top_members.len() > FLAT_TOP_LIMIT {
                 return self.intersect_lanes(rays, active);
             }
-            let inv = V8::new(F8::ONE / rays.dir.x, F8::ONE / rays.dir.y, F8::ONE / rays.dir.z);
+            let inv = V8::new(F8::one() / rays.dir.x, F8::one() / rays.dir.y, F8::one() / rays.dir.z);
             for &(inst, ref bounds) in &self.top_members {
                 let near = Rays8 { tmax: best, ..*rays };
                 let lanes = box8(&near, &inv, active, bounds);
@@ -151,7 +151,7 @@ impl World {
     }
 
     /// Lane by lane through the single-ray query (a top level too large to visit flat).
-    fn intersect_lanes(&self, rays: &Rays8, active: M8) -> Surfaces8 {
+    fn intersect_lanes<I: Isa>(&self, rays: &Rays8<I>, active: M8<I>) -> Surfaces8<I> {
         let mut out = empty_surfaces();
         for i in 0..LANES {
             if let Some(h) = active.lane(i).then(|| self.intersect(&rays.ray(i))).flatten() {
@@ -164,7 +164,7 @@ impl World {
     /// The lanes `lanes` of `rays` in the object space of instance `inst` (direction not
     /// renormalised: `t` is shared).
     #[inline(always)]
-    fn object_rays(&self, inst: u32, rays: &Rays8, lanes: M8) -> Rays8 {
+    fn object_rays<I: Isa>(&self, inst: u32, rays: &Rays8<I>, lanes: M8<I>) -> Rays8<I> {
         let mut out = *rays;
         let from_world = &self.instances[inst as usize].object_from_world;
         for i in 0..LANES {
@@ -179,7 +179,14 @@ impl World {
 
     /// The surface data of the lanes' closest hits (see [`Self::intersect_batch`]).
     #[inline(always)]
-    fn surfaces8(&self, rays: &Rays8, t: F8, kind: U8x, index: U8x, tri: &Hits8) -> Surfaces8 {
+    fn surfaces8<I: Isa>(
+        &self,
+        rays: &Rays8<I>,
+        t: F8<I>,
+        kind: U8x<I>,
+        index: U8x<I>,
+        tri: &Hits8<I>,
+    ) -> Surfaces8<I> {
         let mut out = empty_surfaces();
         out.t = t;
         out.hit = !kind.eq(U8x::splat(NONE));
@@ -210,8 +217,8 @@ impl World {
     /// Sphere-set hits across lanes: `World::instance_hit` of an untransformed sphere, lane
     /// by lane the same operations.
     #[inline(always)]
-    fn sphere_surfaces(&self, rays: &Rays8, lanes: M8, index: U8x, out: &mut Surfaces8) {
-        let (mut centre, mut radius, mut material, mut object) = (V8::ZERO, F8::ZERO, U8x::splat(0), U8x::splat(0));
+    fn sphere_surfaces<I: Isa>(&self, rays: &Rays8<I>, lanes: M8<I>, index: U8x<I>, out: &mut Surfaces8<I>) {
+        let (mut centre, mut radius, mut material, mut object) = (V8::zero(), F8::zero(), U8x::splat(0), U8x::splat(0));
         let mut textured = false;
         for i in 0..LANES {
             if lanes.lane(i) {
@@ -225,8 +232,8 @@ impl World {
             }
         }
         let local = rays.origin + rays.dir.scale(out.t) - centre;
-        let rcp = F8::ONE / local.dot(local).sqrt();
-        let ok = rcp.lt(F8::splat(f32::INFINITY)) & rcp.gt(F8::ZERO);
+        let rcp = F8::one() / local.dot(local).sqrt();
+        let ok = rcp.lt(F8::splat(f32::INFINITY)) & rcp.gt(F8::zero());
         let n = V8::select(ok, local.scale(rcp), V8::splat(Vec3::Y));
         let local = n.scale(radius);
         let p = centre + local;
@@ -252,7 +259,13 @@ impl World {
 
     /// Hits on plane `p` across lanes: `World::plane_hit`, lane by lane the same operations.
     #[inline(always)]
-    fn plane_surfaces(&self, rays: &Rays8, lanes: M8, p: &super::instances::Plane, out: &mut Surfaces8) {
+    fn plane_surfaces<I: Isa>(
+        &self,
+        rays: &Rays8<I>,
+        lanes: M8<I>,
+        p: &super::instances::Plane,
+        out: &mut Surfaces8<I>,
+    ) {
         let n = V8::splat(p.normal);
         let raw = rays.origin + rays.dir.scale(out.t);
         let position = raw - n.scale(raw.dot(n) + F8::splat(p.offset));
@@ -274,12 +287,12 @@ impl World {
     /// [`World::transmittance`]`(&rays.ray(i))` (inactive lanes: 0).
     #[must_use]
     #[inline(always)]
-    pub fn transmittance_batch(&self, rays: &Rays8, active: M8) -> V8 {
+    pub fn transmittance_batch<I: Isa>(&self, rays: &Rays8<I>, active: M8<I>) -> V8<I> {
         let dd = rays.dir.dot(rays.dir);
-        let mut blocked = M8::NONE;
+        let mut blocked = M8::none_set();
         // The product of the transparencies crossed (planes, the sphere set, the top level in
         // this order, as the single-ray pass multiplies them).
-        let mut pass = F8::ONE;
+        let mut pass = F8::one();
         for p in &self.planes {
             let (hit, _) = plane8(rays, active.and_not(blocked), p.normal, p.offset);
             if p.opaque {
@@ -296,19 +309,19 @@ impl World {
             let i = &self.instances[inst as usize];
             let InstanceShape::Sphere { centre, radius } = i.shape else { continue };
             let n = sphere_crossings8(rays, dd, live, centre, radius);
-            let crossed = n.gt(F8::ZERO);
+            let crossed = n.gt(F8::zero());
             if i.opaque {
                 blocked = blocked | crossed;
             } else {
                 pass *= crossing_factor(n, self.material(i.material).transparency);
             }
         }
-        let mut walk = M8::NONE;
+        let mut walk = M8::none_set();
         if self.tlas_used && active.and_not(blocked).any() {
             if self.top_members.len() > FLAT_TOP_LIMIT {
                 return self.transmittance_lanes(rays, active);
             }
-            let inv = V8::new(F8::ONE / rays.dir.x, F8::ONE / rays.dir.y, F8::ONE / rays.dir.z);
+            let inv = V8::new(F8::one() / rays.dir.x, F8::one() / rays.dir.y, F8::one() / rays.dir.z);
             for &(inst, ref bounds) in &self.top_members {
                 let lanes = box8(rays, &inv, active.and_not(blocked), bounds);
                 if lanes.none() {
@@ -320,7 +333,7 @@ impl World {
                     InstanceShape::Sphere { centre, radius } => {
                         let n = sphere_crossings8(&local, local.dir.dot(local.dir), lanes, centre, radius);
                         if instance.opaque {
-                            blocked = blocked | n.gt(F8::ZERO);
+                            blocked = blocked | n.gt(F8::zero());
                         } else {
                             pass *= crossing_factor(n, self.material(instance.material).transparency);
                         }
@@ -337,7 +350,7 @@ impl World {
             }
         }
         let dark = blocked | pass.lt(F8::splat(1e-4)) | !active;
-        let pass = F8::select(dark, F8::ZERO, pass);
+        let pass = F8::select(dark, F8::zero(), pass);
         let mut out = V8::new(pass, pass, pass);
         // A transparent mesh (its triangles may carry different materials) needs its hits in
         // order: those lanes take the single-ray walk.
@@ -351,27 +364,27 @@ impl World {
     }
 
     /// Lane by lane through the single-ray query.
-    fn transmittance_lanes(&self, rays: &Rays8, active: M8) -> V8 {
+    fn transmittance_lanes<I: Isa>(&self, rays: &Rays8<I>, active: M8<I>) -> V8<I> {
         V8::from_fn(|i| if active.lane(i) { self.transmittance(&rays.ray(i)) } else { Vec3::ZERO })
     }
 }
 
 /// `transparency^n` for n ∈ {0, 1, 2} crossings, as the single-ray pass's `powi` gives it.
 #[inline(always)]
-fn crossing_factor(n: F8, transparency: f32) -> F8 {
+fn crossing_factor<I: Isa>(n: F8<I>, transparency: f32) -> F8<I> {
     let (one, two) = (F8::splat(transparency), F8::splat(transparency * transparency));
-    F8::select(n.eq(F8::ONE), one, F8::select(n.eq(F8::splat(2.0)), two, F8::ONE))
+    F8::select(n.eq(F8::one()), one, F8::select(n.eq(F8::splat(2.0)), two, F8::one()))
 }
 
-fn empty_surfaces() -> Surfaces8 {
+fn empty_surfaces<I: Isa>() -> Surfaces8<I> {
     Surfaces8 {
-        hit: M8::NONE,
-        t: F8::ZERO,
-        position: V8::ZERO,
-        p_error: V8::ZERO,
-        geometric_normal: V8::ZERO,
-        shading_normal: V8::ZERO,
-        uv: [F8::ZERO; 2],
+        hit: M8::none_set(),
+        t: F8::zero(),
+        position: V8::zero(),
+        p_error: V8::zero(),
+        geometric_normal: V8::zero(),
+        shading_normal: V8::zero(),
+        uv: [F8::zero(); 2],
         material: U8x::splat(0),
         object: U8x::splat(0),
         prim: U8x::splat(NO_PRIM),

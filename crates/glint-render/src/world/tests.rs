@@ -283,10 +283,23 @@ fn batch_scene() -> Scene {
 /// Eight-ray batches (surface data and shadow transmittance) equal the single-ray queries lane
 /// by lane, bit for bit, with random active masks, on primary rays and on rays from inside.
 #[test]
-#[allow(clippy::needless_range_loop)] // lanes indexed as the kernels index them
 fn batches_equal_single_rays() {
+    struct Check;
+    impl glint_accel::lanes::LaneKernel for Check {
+        type Output = ();
+        #[inline(always)]
+        fn run<I: glint_accel::lanes::Isa>(self) {
+            batches_equal_single_rays_with::<I>();
+        }
+    }
+    glint_accel::lanes::dispatch(Check, true);
+    glint_accel::lanes::dispatch(Check, false);
+}
+
+#[allow(clippy::needless_range_loop)] // lanes indexed as the kernels index them
+fn batches_equal_single_rays_with<I: glint_accel::lanes::Isa>() {
     use glint_accel::batch::Rays8;
-    use glint_core::lanes::{LANES, M8};
+    use glint_accel::lanes::{LANES, M8};
     let scene = batch_scene();
     scene.validate().expect("valid scene");
     let world = World::new(scene);
@@ -306,8 +319,8 @@ fn batches_equal_single_rays() {
                 let r = cam.ray(Vec2::new((tx * 4 + i % 4) as f32 + 0.5, (ty * 2 + i / 4) as f32 + 0.5));
                 if (tx + ty) % 3 == 0 { Ray::new(Vec3::new(0.1, 0.2, 0.1), r.dir) } else { r }
             });
-            let active = M8::from_bits(next() & 0xff | 1);
-            let batch = world.intersect_batch(&Rays8::from_rays(&rays), active);
+            let active = M8::<I>::from_bits(next() & 0xff | 1);
+            let batch = world.intersect_batch(&Rays8::<I>::from_rays(&rays), active);
             let mut shadows = [Ray::new(Vec3::ZERO, Vec3::Y); LANES];
             for i in 0..LANES {
                 let want = if active.lane(i) { world.intersect(&rays[i]) } else { None };
