@@ -88,18 +88,34 @@ impl<I: Isa> Hits8<I> {
 /// The discriminant part of each lane's ray–sphere quadratic, as [`crate::primitives`]'
 /// `sphere_roots` computes it: `f = origin − centre`, `b = f·d`, `c = f·f − r²` and
 /// `disc = a (r² − |f − d b/a|²)`, with the lanes where the roots are real (`disc ≥ 0`, `a`
-/// finite and non-zero). A batch where no lane is real skips the rest.
+/// finite and non-zero). `None` when no `active` lane can be real: first a division-free
+/// test, `a|f|² − b² > a r²` with a margin well above its rounding error (the rays pass too
+/// far from the centre), which spares most batches the exact arithmetic.
 #[inline(always)]
-fn sphere_disc8<I: Isa>(rays: &Rays8<I>, dd: F8<I>, centre: Vec3, radius: f32) -> (M8<I>, F8<I>, F8<I>, F8<I>) {
+fn sphere_disc8<I: Isa>(
+    rays: &Rays8<I>,
+    dd: F8<I>,
+    active: M8<I>,
+    centre: Vec3,
+    radius: f32,
+) -> Option<(M8<I>, F8<I>, F8<I>, F8<I>)> {
     let d = rays.dir;
     let f = rays.origin - V8::splat(centre);
     let r2 = F8::splat(radius * radius);
     let b = f.dot(d);
+    let ff = f.dot(f);
+    // a|f|² − b² is a·|l|² (the squared distance of the line from the centre, times a) up to
+    // rounding of at most a few ε·a|f|²: keep every lane within 1e-5·a|f|² of the sphere.
+    let far = dd * ff - b * b;
+    let near = dd * r2 + F8::splat(1e-5) * dd * ff;
+    if (far.le(near) & active).none() && far.lt(F8::splat(f32::INFINITY)).bits() & active.bits() == active.bits() {
+        return None;
+    }
     let l = f - d.scale(b / dd);
     let disc = dd * (r2 - l.dot(l));
     // NaN compares false: such lanes have no real roots; `a == 0` or non-finite lanes neither.
     let real = disc.ge(F8::zero()) & dd.gt(F8::zero()) & dd.lt(F8::splat(f32::INFINITY));
-    (real, disc, b, f.dot(f) - r2)
+    Some((real, disc, b, ff - r2))
 }
 
 /// Both ordered roots from [`sphere_disc8`]'s parts, lane by lane `sphere_roots`' operations.
@@ -125,7 +141,9 @@ fn within<I: Isa>(rays: &Rays8<I>, t: F8<I>) -> M8<I> {
 #[inline(always)]
 #[must_use]
 pub fn sphere8<I: Isa>(rays: &Rays8<I>, dd: F8<I>, active: M8<I>, centre: Vec3, radius: f32) -> (M8<I>, F8<I>) {
-    let (real, disc, b, c) = sphere_disc8(rays, dd, centre, radius);
+    let Some((real, disc, b, c)) = sphere_disc8(rays, dd, active, centre, radius) else {
+        return (M8::none_set(), F8::zero());
+    };
     let real = real & active;
     if real.none() {
         return (M8::none_set(), F8::zero());
@@ -141,14 +159,16 @@ pub fn sphere8<I: Isa>(rays: &Rays8<I>, dd: F8<I>, active: M8<I>, centre: Vec3, 
 #[inline(always)]
 #[must_use]
 pub fn sphere_crossings8<I: Isa>(rays: &Rays8<I>, dd: F8<I>, active: M8<I>, centre: Vec3, radius: f32) -> F8<I> {
-    let (real, disc, b, c) = sphere_disc8(rays, dd, centre, radius);
+    let Some((real, disc, b, c)) = sphere_disc8(rays, dd, active, centre, radius) else {
+        return F8::zero();
+    };
     let live = real & active;
     if live.none() {
         return F8::zero();
     }
     let (t0, t1) = sphere_roots8(dd, disc, b, c);
-    let one = |m: M8<I>| F8::select(m & live, F8::one(), F8::zero());
-    one(within(rays, t0)) + one(within(rays, t1))
+    let (one, zero) = (F8::one(), F8::zero());
+    F8::select(within(rays, t0) & live, one, zero) + F8::select(within(rays, t1) & live, one, zero)
 }
 
 /// Each active lane's hit with the plane `p · normal + offset = 0` in `(tmin, tmax]`, as
@@ -162,16 +182,46 @@ pub fn plane8<I: Isa>(rays: &Rays8<I>, active: M8<I>, normal: Vec3, offset: f32)
     (within(rays, t) & !denom.eq(F8::zero()) & active, t)
 }
 
-/// [`glint_core::float::offset_ray_origin`] of eight points at once: lane by lane the same operations and the
-/// same one-ulp rounding (as bit arithmetic across lanes), so the same bits.
+/// [`glint_core::float::offset_ray_origin`] of eight points at once: lane by lane the same
+/// operations and the same one-ulp rounding (as bit arithmetic across lanes), so the same bits.
 #[inline(always)]
 #[must_use]
 pub fn offset_ray_origin8<I: Isa>(p: V8<I>, p_error: V8<I>, n: V8<I>, w: V8<I>) -> V8<I> {
-    let d = n.abs().dot(p_error);
-    let offset = n.scale(d);
-    let offset = V8::select(w.dot(n).lt(F8::zero()), -offset, offset);
-    let po = p + offset;
-    V8::new(round_away8(po.x, offset.x), round_away8(po.y, offset.y), round_away8(po.z, offset.z))
+    RayOrigins8::new(p, p_error, n).toward(w)
+}
+
+/// Both spawn points of eight surface points, worked out once for every ray a hit spawns:
+/// `offset_ray_origin` only looks at a direction's side of the surface (the sign of `w · n`),
+/// so each spawned ray picks one of the two.
+#[derive(Clone, Copy, Debug)]
+pub struct RayOrigins8<I: Isa> {
+    /// The point pushed out along `+n`, and along `−n`, each rounded away from the surface.
+    front: V8<I>,
+    back: V8<I>,
+    n: V8<I>,
+}
+
+impl<I: Isa> RayOrigins8<I> {
+    #[inline(always)]
+    #[must_use]
+    pub fn new(p: V8<I>, p_error: V8<I>, n: V8<I>) -> Self {
+        let d = n.abs().dot(p_error);
+        let offset = n.scale(d);
+        RayOrigins8 { front: round_away(p + offset, offset), back: round_away(p + (-offset), -offset), n }
+    }
+
+    /// The origin of rays leaving in direction `w`.
+    #[inline(always)]
+    #[must_use]
+    pub fn toward(&self, w: V8<I>) -> V8<I> {
+        V8::select(w.dot(self.n).lt(F8::zero()), self.back, self.front)
+    }
+}
+
+/// [`round_away8`] of each component.
+#[inline(always)]
+fn round_away<I: Isa>(po: V8<I>, o: V8<I>) -> V8<I> {
+    V8::new(round_away8(po.x, o.x), round_away8(po.y, o.y), round_away8(po.z, o.z))
 }
 
 /// Per lane: [`glint_core::float::next_float_up`] of `v` where `o` > 0, [`glint_core::float::next_float_down`] where `o` < 0, `v`

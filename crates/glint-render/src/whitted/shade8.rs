@@ -10,8 +10,8 @@
 
 use super::batch::{Lanes, Stream, TileSums};
 use crate::world::World;
+use glint_accel::batch::RayOrigins8;
 use glint_accel::batch::Rays8;
-use glint_accel::batch::offset_ray_origin8;
 use glint_accel::lanes::{F8, Isa, LANES, M8, U8x, V8, pow_unit};
 use glint_core::{Rgb, Vec3};
 use glint_scene::{Attenuation, Light, Material, Sky, Texture};
@@ -31,7 +31,10 @@ pub(super) struct MaterialTable {
     ior: Vec<f32>,
     fresnel: Vec<bool>,
     emission: Vec<Vec3>,
-    f0: Vec<Option<Vec3>>,
+    /// Schlick's f0 (zero where the material has none) and whether it has one.
+    f0: Vec<Vec3>,
+    schlick: Vec<bool>,
+    textured: Vec<bool>,
 }
 
 impl MaterialTable {
@@ -49,7 +52,9 @@ impl MaterialTable {
             ior: col(|m| m.ior),
             fresnel: materials.iter().map(|m| m.fresnel).collect(),
             emission: materials.iter().map(|m| m.emission).collect(),
-            f0: materials.iter().map(|m| m.reflection_f0).collect(),
+            f0: materials.iter().map(|m| m.reflection_f0.unwrap_or(Vec3::ZERO)).collect(),
+            schlick: materials.iter().map(|m| m.reflection_f0.is_some()).collect(),
+            textured: materials.iter().map(|m| m.texture.is_some()).collect(),
         }
     }
 }
@@ -67,8 +72,10 @@ struct Materials8<I: Isa> {
     fresnel: M8<I>,
     emission: V8<I>,
     f0: V8<I>,
-    /// Lanes<I> whose material reflects by Schlick's Fresnel (`reflection_f0`).
+    /// Lanes whose material reflects by Schlick's Fresnel (`reflection_f0`).
     schlick: M8<I>,
+    /// Lanes whose material has a texture.
+    textured: M8<I>,
 }
 
 impl<I: Isa> Materials8<I> {
@@ -77,29 +84,40 @@ impl<I: Isa> Materials8<I> {
     fn gather(t: &MaterialTable, index: U8x<I>, lanes: M8<I>) -> Materials8<I> {
         let first = index[lanes.bits().trailing_zeros() as usize % LANES] as usize;
         let shared = (index.eq(U8x::splat(first as u32)) | !lanes) == M8::all();
-        let f = |v: &[f32]| {
-            if shared { F8::splat(v[first]) } else { F8::from_fn(|i| v[index[i] as usize]) }
-        };
-        let v = |v: &[Vec3]| {
-            if shared { V8::splat(v[first]) } else { V8::from_fn(|i| v[index[i] as usize]) }
-        };
-        let m = |v: &[bool]| M8::from_fn(|i| v[index[i] as usize]);
-        let f0 = |i: usize| t.f0[index[i] as usize];
         Materials8 {
-            colour: v(&t.colour),
-            ambient: f(&t.ambient),
-            diffuse: f(&t.diffuse),
-            specular: f(&t.specular),
-            shininess: f(&t.shininess),
-            reflectivity: f(&t.reflectivity),
-            transparency: f(&t.transparency),
-            ior: f(&t.ior),
-            fresnel: m(&t.fresnel),
-            emission: v(&t.emission),
-            f0: V8::from_fn(|i| f0(i).unwrap_or(Vec3::ZERO)),
-            schlick: M8::from_fn(|i| f0(i).is_some()),
+            colour: gather3(&t.colour, index, first, shared),
+            ambient: gather(&t.ambient, index, first, shared),
+            diffuse: gather(&t.diffuse, index, first, shared),
+            specular: gather(&t.specular, index, first, shared),
+            shininess: gather(&t.shininess, index, first, shared),
+            reflectivity: gather(&t.reflectivity, index, first, shared),
+            transparency: gather(&t.transparency, index, first, shared),
+            ior: gather(&t.ior, index, first, shared),
+            fresnel: gather_flag(&t.fresnel, index, first, shared),
+            emission: gather3(&t.emission, index, first, shared),
+            f0: gather3(&t.f0, index, first, shared),
+            schlick: gather_flag(&t.schlick, index, first, shared),
+            textured: gather_flag(&t.textured, index, first, shared) & lanes,
         }
     }
+}
+
+/// `v[index[i]]` per lane (one load when every lane reads `v[first]`).
+#[inline(always)]
+fn gather<I: Isa>(v: &[f32], index: U8x<I>, first: usize, shared: bool) -> F8<I> {
+    if shared { F8::splat(v[first]) } else { F8::from_fn(|i| v[index[i] as usize]) }
+}
+
+/// [`gather`] of flags, as a mask.
+#[inline(always)]
+fn gather_flag<I: Isa>(v: &[bool], index: U8x<I>, first: usize, shared: bool) -> M8<I> {
+    if shared { M8::from_bits(if v[first] { 0xff } else { 0 }) } else { M8::from_fn(|i| v[index[i] as usize]) }
+}
+
+/// [`gather`] of 3-vectors.
+#[inline(always)]
+fn gather3<I: Isa>(v: &[Vec3], index: U8x<I>, first: usize, shared: bool) -> V8<I> {
+    if shared { V8::splat(v[first]) } else { V8::from_fn(|i| v[index[i] as usize]) }
 }
 
 /// A light as the lanes read it: what `Light::sample_at` computes, with the spot cone's
@@ -217,8 +235,8 @@ fn unit<I: Isa>(x: F8<I>) -> F8<I> {
 
 /// The surface colour (material colour × texture) of the hit lanes.
 #[inline(always)]
-fn albedo<I: Isa>(s: &Shading, m: &Materials8<I>, surf: &Surfaces8<I>, lanes: M8<I>) -> V8<I> {
-    let textured = M8::from_fn(|i| lanes.lane(i) && s.materials.texture[surf.material[i] as usize].is_some());
+fn albedo<I: Isa>(s: &Shading, m: &Materials8<I>, surf: &Surfaces8<I>) -> V8<I> {
+    let textured = m.textured;
     if textured.none() {
         return m.colour;
     }
@@ -278,7 +296,7 @@ pub(super) fn shade<I: Isa>(
     next: &mut Stream<I>,
 ) -> u64 {
     let m = Materials8::gather(&s.materials, surf.material, lanes);
-    let albedo = albedo(s, &m, surf, lanes);
+    let albedo = albedo(s, &m, surf);
     let wo = -rays.dir;
     // Orient the normals toward the side the ray came from.
     let entering = surf.geometric_normal.dot(wo).ge(F8::zero());
@@ -292,7 +310,8 @@ pub(super) fn shade<I: Isa>(
             }
         }
     }
-    let (local, shadows) = local(s, surf, &m, albedo, wo, ng, ns, lanes);
+    let origins = RayOrigins8::new(surf.position, surf.p_error, surf.geometric_normal);
+    let (local, shadows) = local(s, surf, &origins, &m, albedo, [wo, ng, ns], lanes);
     let cos_o = unit(ns.dot(wo));
     // Ray cones at the hit and after it (see `tracer.rs`).
     let width = b.width + b.spread * surf.t;
@@ -353,12 +372,12 @@ pub(super) fn shade<I: Isa>(
 
     let reflected = push | push_refl;
     if reflected.any() {
-        let origin = offset_ray_origin8(surf.position, surf.p_error, surf.geometric_normal, reflect_dir);
+        let origin = origins.toward(reflect_dir);
         let weight = V8::select(push, w, w_refl);
         next.push_lanes(reflected, origin, reflect_dir, weight, width, reflected_spread, b.sample);
     }
     if push_refr.any() {
-        let origin = offset_ray_origin8(surf.position, surf.p_error, surf.geometric_normal, refract_dir);
+        let origin = origins.toward(refract_dir);
         next.push_lanes(push_refr, origin, refract_dir, w_refr, width, refr_spread, b.sample);
     }
     shadows
@@ -378,16 +397,15 @@ fn fresnel_dielectric<I: Isa>(cos_i: F8<I>, eta_i: F8<I>, eta_t: F8<I>) -> F8<I>
 
 /// Phong of the hit lanes: `emission + K_a I_a + Σ visible lights (K_d I max(0, L·N) + K_s I
 /// max(0, R·V)^n)`, one shadow packet per light. Returns the colour and the shadow rays traced.
-#[allow(clippy::too_many_arguments)]
+/// `[wo, ng, ns]`: the outgoing direction and the normals turned toward it.
 #[inline(always)]
 fn local<I: Isa>(
     s: &Shading,
     surf: &Surfaces8<I>,
+    origins: &RayOrigins8<I>,
     m: &Materials8<I>,
     albedo: V8<I>,
-    wo: V8<I>,
-    ng: V8<I>,
-    ns: V8<I>,
+    [wo, ng, ns]: [V8<I>; 3],
     lanes: M8<I>,
 ) -> (V8<I>, u64) {
     let world = s.world;
@@ -410,7 +428,7 @@ fn local<I: Isa>(
         // SurfaceHit::spawn_ray_to (a point light's position) or spawn_ray (a direction).
         let target = surf.position + wi.scale(distance);
         let aim = V8::select(finite, target - surf.position, wi);
-        let origin = offset_ray_origin8(surf.position, surf.p_error, surf.geometric_normal, aim);
+        let origin = origins.toward(aim);
         let to_target = target - origin;
         let dist = to_target.dot(to_target).sqrt();
         let dir = V8::select(finite, V8::new(to_target.x / dist, to_target.y / dist, to_target.z / dist), wi);

@@ -73,15 +73,18 @@ const PLANE: u32 = 3;
 /// More top-level members than this are not visited flat: each lane walks the TLAS alone.
 const FLAT_TOP_LIMIT: usize = 32;
 
+/// The entry and exit distances of one slab, ordered.
+#[inline(always)]
+fn slab<I: Isa>(o: F8<I>, inv: F8<I>, lo: f32, hi: f32) -> (F8<I>, F8<I>) {
+    let t0 = (F8::splat(lo) - o) * inv;
+    let t1 = (F8::splat(hi) - o) * inv;
+    (t0.min(t1), t0.max(t1))
+}
+
 /// The lanes of `rays` whose segment `(tmin, tmax]` may meet box `b`: a conservative slab test
 /// (far distances scaled up by 1 + 4γ(3); NaN slabs leave a lane in).
 #[inline(always)]
 fn box8<I: Isa>(rays: &Rays8<I>, inv: &V8<I>, active: M8<I>, b: &Bounds3) -> M8<I> {
-    let slab = |o: F8<I>, inv: F8<I>, lo: f32, hi: f32| {
-        let t0 = (F8::splat(lo) - o) * inv;
-        let t1 = (F8::splat(hi) - o) * inv;
-        (t0.min(t1), t0.max(t1))
-    };
     let (x0, x1) = slab(rays.origin.x, inv.x, b.min.x, b.max.x);
     let (y0, y1) = slab(rays.origin.y, inv.y, b.min.y, b.max.y);
     let (z0, z1) = slab(rays.origin.z, inv.z, b.min.z, b.max.z);
@@ -376,6 +379,7 @@ fn crossing_factor<I: Isa>(n: F8<I>, transparency: f32) -> F8<I> {
     F8::select(n.eq(F8::one()), one, F8::select(n.eq(F8::splat(2.0)), two, F8::one()))
 }
 
+#[inline(always)]
 fn empty_surfaces<I: Isa>() -> Surfaces8<I> {
     Surfaces8 {
         hit: M8::none_set(),
