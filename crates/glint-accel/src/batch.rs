@@ -98,7 +98,7 @@ fn sphere_disc8<I: Isa>(
     active: M8<I>,
     centre: Vec3,
     radius: f32,
-) -> Option<(M8<I>, F8<I>, F8<I>, F8<I>)> {
+) -> Option<SphereDisc8<I>> {
     let d = rays.dir;
     let f = rays.origin - V8::splat(centre);
     let r2 = F8::splat(radius * radius);
@@ -115,7 +115,16 @@ fn sphere_disc8<I: Isa>(
     let disc = dd * (r2 - l.dot(l));
     // NaN compares false: such lanes have no real roots; `a == 0` or non-finite lanes neither.
     let real = disc.ge(F8::zero()) & dd.gt(F8::zero()) & dd.lt(F8::splat(f32::INFINITY));
-    Some((real, disc, b, ff - r2))
+    Some(SphereDisc8 { real, disc, b, c: ff - r2 })
+}
+
+/// What [`sphere_disc8`] found: the lanes with real roots, the discriminant and the
+/// quadratic's `b` and `c`.
+struct SphereDisc8<I: Isa> {
+    real: M8<I>,
+    disc: F8<I>,
+    b: F8<I>,
+    c: F8<I>,
 }
 
 /// Both ordered roots from [`sphere_disc8`]'s parts, lane by lane `sphere_roots`' operations.
@@ -141,7 +150,7 @@ fn within<I: Isa>(rays: &Rays8<I>, t: F8<I>) -> M8<I> {
 #[inline(always)]
 #[must_use]
 pub fn sphere8<I: Isa>(rays: &Rays8<I>, dd: F8<I>, active: M8<I>, centre: Vec3, radius: f32) -> (M8<I>, F8<I>) {
-    let Some((real, disc, b, c)) = sphere_disc8(rays, dd, active, centre, radius) else {
+    let Some(SphereDisc8 { real, disc, b, c }) = sphere_disc8(rays, dd, active, centre, radius) else {
         return (M8::none_set(), F8::zero());
     };
     let real = real & active;
@@ -159,7 +168,7 @@ pub fn sphere8<I: Isa>(rays: &Rays8<I>, dd: F8<I>, active: M8<I>, centre: Vec3, 
 #[inline(always)]
 #[must_use]
 pub fn sphere_crossings8<I: Isa>(rays: &Rays8<I>, dd: F8<I>, active: M8<I>, centre: Vec3, radius: f32) -> F8<I> {
-    let Some((real, disc, b, c)) = sphere_disc8(rays, dd, active, centre, radius) else {
+    let Some(SphereDisc8 { real, disc, b, c }) = sphere_disc8(rays, dd, active, centre, radius) else {
         return F8::zero();
     };
     let live = real & active;
