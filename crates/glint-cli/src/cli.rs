@@ -593,6 +593,28 @@ pub struct BenchWhittedArgs {
     /// with the scene's own sky, and report the ratio.
     #[arg(long, value_name = "PATH")]
     pub sky: Option<PathBuf>,
+    /// Tracer(s) to time, comma-separated: batched (eight-ray streams, AVX2 where the CPU has
+    /// it), batched-sse (the same, baseline SSE lanes), scalar (one ray at a time). Frames of
+    /// several kernels are interleaved.
+    #[arg(long, value_delimiter = ',', value_enum, default_value = "batched")]
+    pub kernel: Vec<KernelArg>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum KernelArg {
+    Batched,
+    BatchedSse,
+    Scalar,
+}
+
+impl From<KernelArg> for glint_render::WhittedKernel {
+    fn from(k: KernelArg) -> Self {
+        match k {
+            KernelArg::Batched => glint_render::WhittedKernel::Batched,
+            KernelArg::BatchedSse => glint_render::WhittedKernel::BatchedBaseline,
+            KernelArg::Scalar => glint_render::WhittedKernel::Scalar,
+        }
+    }
 }
 
 #[derive(Subcommand, Debug)]

@@ -1,7 +1,7 @@
 //! `glint bench`: measured, never guessed. `rays` times traversal on a fixed ray set (and dumps
 //! it for the Embree scripts in ../shared/bench); `whitted` times whole frames.
 
-use crate::cli::{BenchCommand, BenchRaysArgs, BenchWhittedArgs, RayKind, ScheduleArg};
+use crate::cli::{BenchCommand, BenchRaysArgs, BenchWhittedArgs, KernelArg, RayKind, ScheduleArg};
 use crate::input;
 use anyhow::{Context, Result, bail};
 use glint_core::random::SampleStream;
@@ -270,44 +270,54 @@ fn whitted(a: &BenchWhittedArgs) -> Result<()> {
             ScheduleArg::Static => Schedule::Static,
         };
         let image = ImageSettings { schedule, ..ImageSettings::new(a.width, a.height) };
-        let mode = Mode::Whitted(WhittedSettings::from_defaults(&scene.render));
+        let whitted = WhittedSettings::from_defaults(&scene.render);
         let camera = scene.camera;
-        let mut renderers = vec![Renderer::new(scene)?];
+        let mut renderers = vec![("scene sky", Renderer::new(scene)?)];
         if let Some(s) = sky_scene {
-            renderers.push(Renderer::new(s)?);
+            renderers.push(("--sky map", Renderer::new(s)?));
         }
-        for r in &mut renderers {
-            r.render(&camera, &image, &mode, &Hooks::default())?; // warm-up
+        // Every (sky, kernel) variant, its frames interleaved with the others' so that all see
+        // the same machine load; each warmed up first.
+        let mut variants: Vec<(usize, KernelArg)> = Vec::new();
+        for r in 0..renderers.len() {
+            for &k in &a.kernel {
+                variants.push((r, k));
+            }
         }
-        // Frames of the variants interleaved, so that both see the same machine load.
-        let mut ms = vec![Vec::new(); renderers.len()];
-        let mut rays = vec![0; renderers.len()];
+        let mode = |k: KernelArg| Mode::Whitted(WhittedSettings { kernel: k.into(), ..whitted });
+        for &(r, k) in &variants {
+            renderers[r].1.render(&camera, &image, &mode(k), &Hooks::default())?;
+        }
+        let mut ms = vec![Vec::new(); variants.len()];
+        let mut rays = vec![0; variants.len()];
         for _ in 0..a.frames {
-            for (i, r) in renderers.iter_mut().enumerate() {
-                let stats = r.render(&camera, &image, &mode, &Hooks::default())?;
-                ms[i].push(stats.elapsed.as_secs_f64() * 1e3);
-                rays[i] = stats.rays.total();
+            for (v, &(r, k)) in variants.iter().enumerate() {
+                let stats = renderers[r].1.render(&camera, &image, &mode(k), &Hooks::default())?;
+                ms[v].push(stats.elapsed.as_secs_f64() * 1e3);
+                rays[v] = stats.rays.total();
             }
         }
         let mut medians = Vec::new();
-        for (i, times) in ms.iter_mut().enumerate() {
+        for (v, times) in ms.iter_mut().enumerate() {
             let med = median(times);
             medians.push(med);
-            let label = if i == 0 { "scene sky" } else { "--sky map" };
+            let (r, k) = variants[v];
             out!(
-                "whitted {}x{}, {} threads, {:?}, {label}: median {:.2} ms/frame ({:.1} fps), {:.1} Mrays/s, {} rays/frame",
+                "whitted {}x{}, {} threads, {:?}, {}, {k:?}: median {:.2} ms/frame ({:.1} fps), {:.1} Mrays/s, {} rays/frame",
                 a.width,
                 a.height,
                 rayon::current_num_threads(),
                 image.schedule,
+                renderers[r].0,
                 med,
                 1e3 / med,
-                rays[i] as f64 / med / 1e3,
-                rays[i]
+                rays[v] as f64 / med / 1e3,
+                rays[v]
             );
         }
-        if let [base, sky] = medians[..] {
-            out!("sky_map_cost_ratio={:.4}", sky / base);
+        if renderers.len() == 2 {
+            let kernels = a.kernel.len();
+            out!("sky_map_cost_ratio={:.4}", medians[kernels] / medians[0]);
         }
         out!("ms_per_frame_median={:.3}", medians[0]);
         Ok(())

@@ -40,27 +40,38 @@ pub(super) struct Lanes<I: Isa> {
     pub sample: U8x<I>,
 }
 
-/// Eight rays of a stream with their lane state (one block of the stream's storage).
+/// Eight rays of a stream with their lane state (one block of the stream's storage), as
+/// plain arrays: a block is loaded into lanes and stored from them whole.
 #[derive(Clone, Copy, Default)]
-struct Block<I: Isa> {
-    origin: V8<I>,
-    dir: V8<I>,
-    weight: V8<I>,
-    width: F8<I>,
-    spread: F8<I>,
-    sample: U8x<I>,
+struct Block {
+    origin: [[f32; LANES]; 3],
+    dir: [[f32; LANES]; 3],
+    weight: [[f32; LANES]; 3],
+    width: [f32; LANES],
+    spread: [f32; LANES],
+    sample: [u32; LANES],
 }
 
 /// The rays of one depth level of a tile, in blocks of eight (structure of arrays inside a
-/// block): a batch is one block, read as it is; spawned rays are appended lane by lane, so
-/// the blocks stay full however the trees diverge.
+/// block): a batch is one block; spawned rays are appended lane by lane, so the blocks stay
+/// full however the trees diverge.
 #[derive(Default)]
-pub(super) struct Stream<I: Isa> {
-    blocks: Vec<Block<I>>,
+pub(super) struct Stream {
+    blocks: Vec<Block>,
     len: usize,
 }
 
-impl<I: Isa> Stream<I> {
+#[inline(always)]
+fn store3<I: Isa>(v: V8<I>) -> [[f32; LANES]; 3] {
+    [v.x.to_array(), v.y.to_array(), v.z.to_array()]
+}
+
+#[inline(always)]
+fn load3<I: Isa>(a: &[[f32; LANES]; 3]) -> V8<I> {
+    V8::new(F8::from_array(a[0]), F8::from_array(a[1]), F8::from_array(a[2]))
+}
+
+impl Stream {
     fn clear(&mut self) {
         self.len = 0;
     }
@@ -72,7 +83,7 @@ impl<I: Isa> Stream<I> {
     /// Append the `lanes` of a batch, in lane order.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn push_lanes(
+    pub(super) fn push_lanes<I: Isa>(
         &mut self,
         lanes: M8<I>,
         origin: V8<I>,
@@ -82,24 +93,29 @@ impl<I: Isa> Stream<I> {
         spread: F8<I>,
         sample: U8x<I>,
     ) {
-        let count = lanes.bits().count_ones() as usize;
+        let bits = lanes.bits();
+        let count = bits.count_ones() as usize;
         let needed = (self.len + count).div_ceil(LANES);
         if self.blocks.len() < needed {
             self.blocks.resize(needed, Block::default());
         }
         if count == LANES && self.len.is_multiple_of(LANES) {
-            self.blocks[self.len / LANES] = Block { origin, dir, weight, width, spread, sample };
+            let b = &mut self.blocks[self.len / LANES];
+            (b.origin, b.dir, b.weight) = (store3(origin), store3(dir), store3(weight));
+            (b.width, b.spread, b.sample) = (width.to_array(), spread.to_array(), sample.to_array());
             self.len += LANES;
             return;
         }
+        let (o, d, w) = (store3(origin), store3(dir), store3(weight));
+        let (wd, sp, sa) = (width.to_array(), spread.to_array(), sample.to_array());
         for i in 0..LANES {
-            if lanes.lane(i) {
+            if bits >> i & 1 != 0 {
                 let (k, j) = (self.len / LANES, self.len % LANES);
                 let b = &mut self.blocks[k];
-                b.origin.set(j, origin.lane(i));
-                b.dir.set(j, dir.lane(i));
-                b.weight.set(j, weight.lane(i));
-                (b.width[j], b.spread[j], b.sample[j]) = (width[i], spread[i], sample[i]);
+                for c in 0..3 {
+                    (b.origin[c][j], b.dir[c][j], b.weight[c][j]) = (o[c][i], d[c][i], w[c][i]);
+                }
+                (b.width[j], b.spread[j], b.sample[j]) = (wd[i], sp[i], sa[i]);
                 self.len += 1;
             }
         }
@@ -107,10 +123,16 @@ impl<I: Isa> Stream<I> {
 
     /// Rays `start..start + 8` (`start` a multiple of 8; the lanes past the end inactive).
     #[inline(always)]
-    fn batch(&self, start: usize) -> (Rays8<I>, Lanes<I>, M8<I>) {
+    fn batch<I: Isa>(&self, start: usize) -> (Rays8<I>, Lanes<I>, M8<I>) {
         let b = &self.blocks[start / LANES];
-        let rays = Rays8 { origin: b.origin, dir: b.dir, tmin: F8::zero(), tmax: F8::splat(f32::INFINITY) };
-        let lanes = Lanes { weight: b.weight, width: b.width, spread: b.spread, sample: b.sample };
+        let rays =
+            Rays8 { origin: load3(&b.origin), dir: load3(&b.dir), tmin: F8::zero(), tmax: F8::splat(f32::INFINITY) };
+        let lanes = Lanes {
+            weight: load3(&b.weight),
+            width: F8::from_array(b.width),
+            spread: F8::from_array(b.spread),
+            sample: U8x::from_array(b.sample),
+        };
         (rays, lanes, M8::first(self.len - start))
     }
 }
@@ -151,11 +173,12 @@ impl TileSums {
     }
 }
 
-/// A thread's reusable state.
+/// A thread's reusable state (kept between bands and frames: fresh pages cost more than the
+/// tracing they hold).
 #[derive(Default)]
-pub(super) struct Scratch<I: Isa> {
-    current: Stream<I>,
-    next: Stream<I>,
+pub(super) struct Scratch {
+    current: Stream,
+    next: Stream,
     sums: TileSums,
 }
 
@@ -209,7 +232,7 @@ impl<'a> Frame<'a> {
 #[inline(always)]
 pub(super) fn render_band<I: Isa>(
     frame: &Frame,
-    scratch: &mut Scratch<I>,
+    scratch: &mut Scratch,
     band_index: usize,
     rows: usize,
     band: &mut [FilmPixel],
@@ -220,7 +243,7 @@ pub(super) fn render_band<I: Isa>(
     let band_rows = band.len() / frame.width;
     for x0 in (0..frame.width).step_by(TILE_W) {
         let tile_w = TILE_W.min(frame.width - x0);
-        rejected += render_tile(frame, scratch, x0, y0, tile_w, band_rows, &mut counts, band);
+        rejected += render_tile::<I>(frame, scratch, x0, y0, tile_w, band_rows, &mut counts, band);
     }
     BandStats { rays: counts, rejected }
 }
@@ -230,7 +253,7 @@ pub(super) fn render_band<I: Isa>(
 #[allow(clippy::too_many_arguments)]
 fn render_tile<I: Isa>(
     frame: &Frame,
-    scratch: &mut Scratch<I>,
+    scratch: &mut Scratch,
     x0: usize,
     y0: usize,
     tile_w: usize,
@@ -244,14 +267,14 @@ fn render_tile<I: Isa>(
     let Scratch { current, next, sums } = scratch;
     sums.reset(pixels * per_pixel);
     current.clear();
-    primary_stream(frame, x0, y0, tile_w, tile_h, current);
+    primary_stream::<I>(frame, x0, y0, tile_w, tile_h, current);
     let s = &frame.shading;
     let sky = s.world.sky();
     let mut depth = 0;
     while current.len() > 0 {
         next.clear();
         for start in (0..current.len()).step_by(LANES) {
-            let (rays, lanes, active) = current.batch(start);
+            let (rays, lanes, active) = current.batch::<I>(start);
             let traced = u64::from(active.bits().count_ones());
             if depth == 0 {
                 counts.primary += traced;
@@ -283,10 +306,10 @@ fn render_tile<I: Isa>(
 /// order, samples one after the other; sample `k` of the tile's pixel `p` is entry
 /// `k · pixels + p` of the sums.
 #[inline(always)]
-fn primary_stream<I: Isa>(frame: &Frame, x0: usize, y0: usize, tile_w: usize, tile_h: usize, out: &mut Stream<I>) {
+fn primary_stream<I: Isa>(frame: &Frame, x0: usize, y0: usize, tile_w: usize, tile_h: usize, out: &mut Stream) {
     let n = frame.samples_per_side;
     let pixels = tile_w * tile_h;
-    let origin = V8::splat(frame.rays.origin);
+    let origin = V8::<I>::splat(frame.rays.origin);
     let forward = V8::splat(frame.forward);
     // CameraRays::ray across lanes: the same operations, so the same directions.
     let (top_left, right, down) = frame.rays.image_plane();

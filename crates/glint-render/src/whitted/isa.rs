@@ -9,6 +9,11 @@ use crate::film::FilmPixel;
 use crate::stats::BandStats;
 use glint_accel::lanes::{Isa, LaneKernel, dispatch};
 
+thread_local! {
+    /// Each worker thread's streams and sample sums, reused by every band it traces.
+    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
+}
+
 /// One band of the batched tracer.
 struct Band<'a, 'f> {
     frame: &'a Frame<'f>,
@@ -22,8 +27,12 @@ impl LaneKernel for Band<'_, '_> {
 
     #[inline(always)]
     fn run<I: Isa>(self) -> BandStats {
-        let mut scratch = Scratch::<I>::default();
-        render_band(self.frame, &mut scratch, self.index, self.rows, self.pixels)
+        // Taken out and put back (no closure: a closure would be compiled without the
+        // kernel's target features).
+        let mut scratch = SCRATCH.take();
+        let stats = render_band::<I>(self.frame, &mut scratch, self.index, self.rows, self.pixels);
+        SCRATCH.set(scratch);
+        stats
     }
 }
 

@@ -293,7 +293,7 @@ pub(super) fn shade<I: Isa>(
     lanes: M8<I>,
     depth: u32,
     sums: &mut TileSums,
-    next: &mut Stream<I>,
+    next: &mut Stream,
 ) -> u64 {
     let m = Materials8::gather(&s.materials, surf.material, lanes);
     let albedo = albedo(s, &m, surf);
