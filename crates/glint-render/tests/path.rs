@@ -81,7 +81,8 @@ fn white_furnace_returns_the_sky() {
 #[test]
 fn closed_emitting_sphere_sums_the_geometric_series() {
     let rho = 0.5f32;
-    let emitter = Material { emission: Rgb::ONE, ..white_diffuse(rho) };
+    // Seen from inside: the inner faces are the back faces, so the sphere emits from both.
+    let emitter = Material { emission: Rgb::ONE, two_sided: true, ..white_diffuse(rho) };
     let camera = Camera::look_at(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), Vec3::Y, Fov::Vertical(90.0));
     let ico = glint_accel::procedural::icosphere(3);
     let mesh = glint_scene::Mesh {
@@ -114,6 +115,42 @@ fn closed_emitting_sphere_sums_the_geometric_series() {
                 "{shape:?} {bounces} bounces: {mean} ± {err}, expected {expected}"
             );
         }
+    }
+}
+
+/// Emitters shine from their front face only (the side their geometric normal points to), as
+/// Mitsuba's and pbrt's area lights do, unless two-sided: a floor lit by a quad light facing
+/// down receives its light (through next-event estimation and BSDF sampling alike), a quad
+/// facing up leaves it dark and is itself black seen from below, and a two-sided quad lights it
+/// whichever way it faces.
+#[test]
+fn emitters_are_one_sided_unless_two_sided() {
+    let quad = |down: bool| {
+        let (a, b, c, d) =
+            (Vec3::new(-0.5, 2.0, -0.5), Vec3::new(0.5, 2.0, -0.5), Vec3::new(0.5, 2.0, 0.5), Vec3::new(-0.5, 2.0, 0.5));
+        // a → b → c runs clockwise seen from above: (b − a) × (c − a) points down.
+        let triangles = if down { vec![[0, 1, 2], [0, 2, 3]] } else { vec![[0, 2, 1], [0, 3, 2]] };
+        glint_scene::Mesh { name: "quad".into(), positions: vec![a, b, c, d], triangles, ..glint_scene::Mesh::default() }
+    };
+    let floor_light = |down: bool, two_sided: bool, max_bounces: u32| {
+        let scene = Scene {
+            camera: Camera::look_at(Vec3::new(0.0, 1.0, 3.0), Vec3::ZERO, Vec3::Y, Fov::Vertical(40.0)),
+            sky: Sky::Colour(Rgb::ZERO),
+            materials: vec![white_diffuse(0.8), Material { emission: Rgb::splat(4.0), two_sided, ..white_diffuse(0.0) }],
+            meshes: vec![Arc::new(quad(down))],
+            objects: vec![object(Shape::Plane { normal: Vec3::Y, offset: 0.0 }, 0), object(Shape::Mesh(0), 1)],
+            ..Scene::default()
+        };
+        let film = render(scene, 32, 24, &path(8, max_bounces, Filter::None));
+        // The floor in the middle of the picture (below the light).
+        film.pixel(16, 14).colour.x
+    };
+    for bounces in [0, 2] {
+        let down = floor_light(true, false, bounces);
+        assert!(down > 0.05, "a light facing the floor lights it: {down}");
+        assert_eq!(floor_light(false, false, bounces), 0.0, "a light facing away leaves it dark");
+        let both = floor_light(false, true, bounces);
+        assert!((both - down).abs() < 0.15 * down, "two-sided lights both ways: {both} vs {down}");
     }
 }
 

@@ -29,8 +29,12 @@ pub struct Material {
     /// Weight reflection/refraction of transparent materials by the exact dielectric Fresnel
     /// equations (default). When false, `reflectivity` and `transparency` are used as given.
     pub fresnel: bool,
-    /// Emitted radiance (area lights in path mode; added as-is in Whitted mode).
+    /// Emitted radiance (area lights in path mode; added as-is in Whitted mode), from the front
+    /// face only — the side the geometric normal points to (triangles: by winding; spheres:
+    /// outward), as Mitsuba and pbrt emit — unless `two_sided`.
     pub emission: Rgb,
+    /// Emit from both faces.
+    pub two_sided: bool,
     /// Fresnel reflection of the surroundings (DESIGN.md §4): the shaded colour is blended with
     /// a traced reflection ray by Schlick's `F = f0 + (1 − f0)(1 − n·v)^5`, i.e.
     /// `lerp(shaded, reflected, F)`. f0 = 0.04 for dielectrics (plastic, paint, glazed
@@ -54,12 +58,21 @@ impl Default for Material {
             ior: 1.5,
             fresnel: true,
             emission: Rgb::ZERO,
+            two_sided: false,
             reflection_f0: None,
         }
     }
 }
 
 impl Material {
+    /// The radiance this material emits toward `wo` from a surface whose geometric normal is
+    /// `ng` (unflipped): its emission on the front face, and on the back only when two-sided.
+    #[inline]
+    #[must_use]
+    pub fn emitted(&self, ng: glint_core::Vec3, wo: glint_core::Vec3) -> Rgb {
+        if self.two_sided || ng.dot(wo) > 0.0 { self.emission } else { Rgb::ZERO }
+    }
+
     pub fn is_transparent(&self) -> bool {
         self.transparency > 0.0
     }

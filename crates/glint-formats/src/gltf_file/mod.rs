@@ -423,6 +423,8 @@ fn convert_material(index: usize, m: &gltf::Material) -> Material {
         reflectivity: metallic * (1.0 - roughness),
         transparency,
         emission: Rgb::from_array(m.emissive_factor()).max(Rgb::ZERO),
+        // glTF's doubleSided: both faces are seen (and emit).
+        two_sided: m.double_sided(),
         ..Material::default()
     }
 }

@@ -148,6 +148,8 @@ pub(crate) struct MaterialDef {
     pub ior: Option<Spanned<Num>>,
     pub fresnel: Option<bool>,
     pub emission: Option<Spanned<V3>>,
+    /// Emit from both faces (default: the front face only).
+    pub two_sided: Option<bool>,
     /// Fresnel (Schlick) reflection with this reflectance at normal incidence.
     pub f0: Option<Spanned<Scale>>,
 }

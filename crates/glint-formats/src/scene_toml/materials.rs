@@ -138,6 +138,7 @@ impl Builder<'_> {
         if let Some(e) = &def.emission {
             mat.emission = self.colour(e, "emission")?;
         }
+        mat.two_sided = def.two_sided.unwrap_or(false);
         self.material_names.insert(name.clone(), self.scene.materials.len());
         self.scene.materials.push(mat);
         Ok(())

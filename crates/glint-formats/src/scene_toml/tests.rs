@@ -740,3 +740,15 @@ fn the_documented_animation_example_and_the_animated_scene_load() {
     assert_ne!(s.lights[0], moved.lights[0]);
     assert_eq!(s.lights[1], moved.lights[1]);
 }
+
+#[test]
+fn emitters_are_one_sided_unless_the_material_says_two_sided() {
+    let text = format!(
+        "{BASE}\n[[material]]\nname = \"panel\"\nemission = [4, 4, 4]\n\n[[material]]\nname = \"lamp\"\nemission = [1, 1, 1]\ntwo_sided = true\n"
+    );
+    let loaded = parse(&text).expect("valid scene");
+    let find = |name: &str| loaded.scene.materials.iter().find(|m| m.name == name).expect("material");
+    assert!(!find("panel").two_sided && find("lamp").two_sided);
+    let text = format!("{BASE}\n[[material]]\nname = \"m\"\ntwo_sided = \"yes\"\n");
+    assert_at(&error(&text), line_of(&text, "two_sided"));
+}

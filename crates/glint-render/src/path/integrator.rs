@@ -123,7 +123,7 @@ impl<'a> Integrator<'a> {
         let m = self.world.material(hit.material);
         let albedo = self.world.albedo(hit);
         let (entering, ng, ns, wo) = orient(hit, dir);
-        (Bsdf::new(m, albedo, wo, ns, ng, entering), m.emission)
+        (Bsdf::new(m, albedo, wo, ns, ng, entering), m.emitted(hit.geometric_normal, wo))
     }
 
     /// Trace one camera sample whose primary ray's closest hit is `first` (found by a single

@@ -4,7 +4,8 @@
 //! **Units.** Point, spot and directional lights keep the Whitted mode's meaning: a light of
 //! intensity `I` gives a white Lambertian surface facing it the brightness `I` (Phong's
 //! `K_d I cos`), i.e. it delivers irradiance `π I`. So the same scene looks alike in both modes.
-//! Emissive surfaces emit radiance `emission` from both sides; the sky is radiance.
+//! Emissive surfaces emit radiance `emission` from their front face (two-sided materials from
+//! both); the sky is radiance.
 //!
 //! **Choice.** Up to [`EACH_DELTA_LIMIT`] point, spot and directional lights are each given a
 //! shadow ray at every shading point (they cost one ray and have no variance: choosing among
@@ -174,7 +175,9 @@ impl LightSet {
                 let dist = dist2.sqrt();
                 let wi = to / dist;
                 let n = (b - a).cross(c - a);
-                let cos_l = n.dot(wi).abs() / n.length();
+                // One-sided lights shine from their front face only: toward −n·wi > 0.
+                let facing = -n.dot(wi);
+                let cos_l = if t.two_sided { facing.abs() } else { facing } / n.length();
                 if cos_l.is_nan() || cos_l <= 1e-7 {
                     return None;
                 }
@@ -203,8 +206,9 @@ impl LightSet {
     pub fn pdf_surface(&self, from: Vec3, dir: Vec3, hit: &SurfaceHit) -> Option<f32> {
         let &entry = self.triangle_entry.get(&(hit.object, hit.prim))?;
         let Entry::Triangle(i) = self.entries[entry as usize] else { return None };
-        let cos_l = hit.geometric_normal.dot(dir).abs();
-        if cos_l <= 0.0 {
+        let facing = -hit.geometric_normal.dot(dir);
+        let cos_l = if self.triangles[i].two_sided { facing.abs() } else { facing };
+        if cos_l.is_nan() || cos_l <= 0.0 {
             return Some(0.0);
         }
         let dist2 = (hit.position - from).length_squared();

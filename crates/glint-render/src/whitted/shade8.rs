@@ -31,6 +31,8 @@ pub(super) struct MaterialTable {
     ior: Vec<f32>,
     fresnel: Vec<bool>,
     emission: Vec<Vec3>,
+    /// Emission from both faces (else the front only).
+    two_sided: Vec<bool>,
     /// Schlick's f0 (zero where the material has none) and whether it has one.
     f0: Vec<Vec3>,
     schlick: Vec<bool>,
@@ -54,6 +56,7 @@ impl MaterialTable {
             emission: materials.iter().map(|m| m.emission).collect(),
             f0: materials.iter().map(|m| m.reflection_f0.unwrap_or(Vec3::ZERO)).collect(),
             schlick: materials.iter().map(|m| m.reflection_f0.is_some()).collect(),
+            two_sided: materials.iter().map(|m| m.two_sided).collect(),
             textured: materials.iter().map(|m| m.texture.is_some()).collect(),
         }
     }
@@ -76,6 +79,8 @@ struct Materials8<I: Isa> {
     schlick: M8<I>,
     /// Lanes whose material has a texture.
     textured: M8<I>,
+    /// Lanes whose material emits from both faces.
+    two_sided: M8<I>,
 }
 
 impl<I: Isa> Materials8<I> {
@@ -98,6 +103,7 @@ impl<I: Isa> Materials8<I> {
             f0: gather3(&t.f0, index, first, shared),
             schlick: gather_flag(&t.schlick, index, first, shared),
             textured: gather_flag(&t.textured, index, first, shared) & lanes,
+            two_sided: gather_flag(&t.two_sided, index, first, shared),
         }
     }
 }
@@ -413,7 +419,9 @@ fn local<I: Isa>(
         Some(c) => V8::splat(c),
         None => V8::from_fn(|i| if lanes.lane(i) { world.ambient(ns.lane(i)) } else { Rgb::ZERO }),
     };
-    let mut c = m.emission + (ambient * albedo).scale(m.ambient);
+    // Material::emitted: the front face (or both, two-sided) emits.
+    let front = surf.geometric_normal.dot(wo).gt(F8::zero()) | m.two_sided;
+    let mut c = V8::select(front, m.emission, V8::zero()) + (ambient * albedo).scale(m.ambient);
     let mut shadows = 0;
     for light in &s.lights {
         let (wi, distance, radiance, lit) = light.sample(surf.position);

@@ -10,8 +10,12 @@ use glint_core::{Rgb, Vec3};
 pub struct EmissiveTriangle {
     pub object: u32,
     pub prim: u32,
+    /// Wound so that `(v1 − v0) × (v2 − v0)` is the front face's normal (the hit's geometric
+    /// normal), also under mirroring transforms.
     pub vertices: [Vec3; 3],
     pub emission: Rgb,
+    /// Emits from both faces (else from the front only).
+    pub two_sided: bool,
 }
 
 impl World {
@@ -28,12 +32,21 @@ impl World {
                     Some(ms) => ms[prim],
                     None => inst.material,
                 };
-                let emission = self.scene.materials[material as usize].emission;
-                if emission.max_element() <= 0.0 {
+                let m = &self.scene.materials[material as usize];
+                if m.emission.max_element() <= 0.0 {
                     continue;
                 }
-                let vertices = t.map(|i| inst.world_from_object.transform_point3(mesh.positions[i as usize]));
-                out.push(EmissiveTriangle { object: inst.object, prim: prim as u32, vertices, emission });
+                let [a, b, c] = t.map(|i| inst.world_from_object.transform_point3(mesh.positions[i as usize]));
+                // A mirroring transform turns the winding around; the hit's normal does not turn.
+                let mirrored = inst.world_from_object.matrix3.determinant() < 0.0;
+                let vertices = if mirrored { [a, c, b] } else { [a, b, c] };
+                out.push(EmissiveTriangle {
+                    object: inst.object,
+                    prim: prim as u32,
+                    vertices,
+                    emission: m.emission,
+                    two_sided: m.two_sided,
+                });
             }
         }
         out
