@@ -50,7 +50,8 @@ pub enum Command {
     /// Measure an image against a reference: MSE, relMSE, PSNR, SSIM, and a false-colour error
     /// image (docs/compare.md).
     Compare(CompareArgs),
-    /// Filter the indirect light of a path-mode AOV EXR (docs/aovs.md): guided, bilateral or
+    /// Filter the indirect light of a path-mode AOV EXR (docs/aovs.md; the paper's split: the
+    /// direct light stays as rendered): guided, bilateral or
     /// A-Trous, guided by its normal and depth channels.
     Filter(FilterArgs),
 }
@@ -341,14 +342,19 @@ pub struct PathArgs {
     /// Path mode: render passes of --spp samples until this many seconds are spent.
     #[arg(long, value_name = "SECONDS", allow_hyphen_values = true)]
     pub time: Option<f64>,
+    /// Path mode: passes of --spp samples each (each filtered with its own guide rays, then
+    /// averaged); --time may add more.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub passes: u32,
     /// Path mode: firefly clamp — the largest indirect radiance one sample may bring (biased;
     /// off by default).
     #[arg(long, value_name = "X", allow_hyphen_values = true)]
     pub clamp: Option<f32>,
-    /// Path mode: filter the diffuse light of area lights and the sky too (not only the
-    /// indirect light); point, spot and directional lights stay sharp.
-    #[arg(long = "filter-area-lights")]
-    pub filter_area_lights: bool,
+    /// Path mode: the paper's split — filter only the indirect light, and leave the direct
+    /// light of area lights and the sky unfiltered (by default it is filtered too; point, spot
+    /// and directional lights always stay sharp).
+    #[arg(long = "paper-split")]
+    pub paper_split: bool,
     #[command(flatten)]
     pub filter_options: FilterOptions,
 }
@@ -716,10 +722,10 @@ pub struct ViewArgs {
     /// Path mode: indirect bounces (keys [ and ]).
     #[arg(long = "max-bounces", default_value_t = 1)]
     pub max_bounces: u32,
-    /// Path mode: filter the diffuse light of area lights and the sky too (not only the
-    /// indirect light); point, spot and directional lights stay sharp.
-    #[arg(long = "filter-area-lights")]
-    pub filter_area_lights: bool,
+    /// Path mode: the paper's split — filter only the indirect light (by default the direct
+    /// light of area lights and the sky is filtered too).
+    #[arg(long = "paper-split")]
+    pub paper_split: bool,
     /// Whitted: deepest reflection/refraction chain.
     #[arg(long = "max-depth", default_value_t = 8)]
     pub max_depth: u32,

@@ -209,7 +209,8 @@ fn path_settings(args: &RenderArgs, path: PathSettings, width: u32) -> Result<Pa
         filter: filter_from_args(p.filter, &p.filter_options, width)?,
         time_budget,
         clamp_indirect: p.clamp,
-        filter_area_direct: p.filter_area_lights,
+        filter_area_direct: !p.paper_split,
+        passes: p.passes,
         ..path
     })
 }

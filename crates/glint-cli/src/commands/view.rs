@@ -35,7 +35,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     let mut scene = input::load_with(args.input.as_deref(), args.points.colour_by, false)?;
     let mut settings = ViewSettings::new(args.width, args.height, scene.render.mode, &scene.render);
     let m = &mut settings.modes;
-    (m.path.spp, m.path.max_bounces, m.path.filter_area_direct) = (args.spp, args.max_bounces, args.filter_area_lights);
+    (m.path.spp, m.path.max_bounces, m.path.filter_area_direct) = (args.spp, args.max_bounces, !args.paper_split);
     (m.whitted.max_depth, m.path.max_chain) = (args.max_depth, args.max_depth);
     m.path.validate().context("path mode")?;
     // Checks the filter's options as `glint render` does.

@@ -55,14 +55,18 @@ pub struct PathSettings {
     /// vertex (the scene's `max_depth`).
     pub max_chain: u32,
     pub filter: Filter,
-    /// Render passes until this much time has been spent (at least one pass).
+    /// Passes of `spp` samples per pixel (at least 1); a time budget may add more.
+    pub passes: u32,
+    /// Render passes until this much time has been spent (at least `passes`).
     pub time_budget: Option<Duration>,
     /// Firefly clamp: the largest component of the indirect radiance a sample brings to its
     /// guide vertex (biased: caustics darken). None = off, the unbiased default.
     pub clamp_indirect: Option<f32>,
     /// Also filter the diffuse direct light of area lights and the sky (sampled lights), not
-    /// only the indirect light: an extension of the paper, whose direct light came from point
-    /// lights. Point, spot and directional lights stay unfiltered (sharp shadows).
+    /// only the indirect light (the default): at one sample per pixel their direct light is as
+    /// noisy as the indirect light. `false` is the paper's split (its direct light came from
+    /// point lights; its tables are reproduced with it). Point, spot and directional lights
+    /// are never filtered (sharp shadows).
     pub filter_area_direct: bool,
 }
 
@@ -74,9 +78,10 @@ impl Default for PathSettings {
             rr_start: 3,
             max_chain: 8,
             filter: Filter::None,
+            passes: 1,
             time_budget: None,
             clamp_indirect: None,
-            filter_area_direct: false,
+            filter_area_direct: true,
         }
     }
 }
@@ -94,6 +99,14 @@ impl PathSettings {
             && !(c.is_finite() && c > 0.0)
         {
             return Err(RenderError::InvalidSetting(format!("indirect clamp {c} (must be a finite number > 0)")));
+        }
+        if self.passes == 0 || self.passes.saturating_mul(self.spp) > *limits::SPP.end() * 16 {
+            return Err(RenderError::InvalidSetting(format!(
+                "{} passes of {} spp (must be at least 1, at most {} samples per pixel in all)",
+                self.passes,
+                self.spp,
+                *limits::SPP.end() * 16
+            )));
         }
         if let Some(t) = self.time_budget
             && t.is_zero()
@@ -249,6 +262,9 @@ pub fn render_path(
         }
         pass += 1;
         let pass_time = pass_start.elapsed();
+        if pass < path.passes {
+            continue;
+        }
         match path.time_budget {
             Some(budget) if start.elapsed() + pass_time <= budget && pass < u32::MAX / path.spp.max(1) => {}
             _ => break,
@@ -292,7 +308,10 @@ fn trace_guides(
             let count = if filtered { 1 } else { path.spp as u64 };
             for s in 0..count {
                 let index = base + s;
-                let centre = if filtered { s == 0 } else { index == 0 };
+                // The guide ray of the first pass goes through the pixel centre (the guide and
+                // the AOVs); every other sample, later passes' guide rays included, is jittered,
+                // so a pixel centre on a crack does not stay dark for the whole budget.
+                let centre = index == 0;
                 let (_, cs) = frame.sample(&mut it, x, y, index, centre, IndirectMode::Trace);
                 if !cs.is_finite() {
                     rejected += 1;
