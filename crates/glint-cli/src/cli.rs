@@ -440,6 +440,36 @@ pub enum BenchCommand {
     /// The viewer's frame loop without a window: a fixed orbit around the content, per-frame
     /// times of any mode (what the window would show, measured).
     View(BenchViewArgs),
+    /// Path tracing throughput: whole path-mode frames of a scene, millions of paths per second
+    /// (median of several frames; the last line is `mpaths_per_s_median=X`).
+    Path(BenchPathArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct BenchPathArgs {
+    /// Scene or model file.
+    pub scene: PathBuf,
+    /// Samples per pixel per frame (one path each).
+    #[arg(long, default_value_t = 16)]
+    pub spp: u32,
+    /// Image size; default: the scene's.
+    #[arg(long)]
+    pub width: Option<u32>,
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Indirect bounces; default: the scene's.
+    #[arg(long = "max-bounces")]
+    pub max_bounces: Option<u32>,
+    /// Filter of the indirect light (none: plain path tracing, the throughput measure).
+    #[arg(long, value_enum, default_value = "none")]
+    pub filter: FilterArg,
+    /// Timed frames (the median is reported).
+    #[arg(long, default_value_t = 5)]
+    pub frames: usize,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    #[arg(long)]
+    pub threads: Option<usize>,
 }
 
 #[derive(Args, Debug)]

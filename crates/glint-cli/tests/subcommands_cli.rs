@@ -94,6 +94,9 @@ fn minimal_invocation(name: &str, data: Option<&str>) -> Option<Vec<String>> {
         "bench filters" => v(&["bench", "filters", "--data", data?, "--width", "48", "--height", "32", "--reps", "1"]),
         "bench gi" => v(&common::bench_gi_tiny(data?)),
         "bench points" => v(&["bench", "points", "--data", data?, "--clouds", "bunny", "--sizes", "64", "--reps", "1"]),
+        "bench path" => {
+            v(&["bench", "path", "tetra.obj", "--spp", "1", "--width", "16", "--height", "16", "--frames", "1"])
+        }
         "bench view" => v(&["bench", "view", "--width", "64", "--height", "36", "--frames", "2"]),
         "sky convert" => v(&["sky", "convert", "sky.png", "faces", "--to", "faces"]),
         "compare" => v(&["compare", "render.png", "render.png"]),

@@ -1,7 +1,10 @@
 //! `glint bench`: measured, never guessed. `rays` times traversal on a fixed ray set (and dumps
 //! it for the Embree scripts in ../shared/bench); `whitted` times whole frames.
 
-use crate::cli::{BenchCommand, BenchRaysArgs, BenchWhittedArgs, KernelArg, RayKind, ScheduleArg};
+use crate::cli::{
+    BenchCommand, BenchPathArgs, BenchRaysArgs, BenchWhittedArgs, FilterOptions, KernelArg, RayKind, ScheduleArg,
+    clap_defaults,
+};
 use crate::input;
 use anyhow::{Context, Result, bail};
 use glint_core::random::SampleStream;
@@ -26,6 +29,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         BenchCommand::Gi(a) => super::bench_gi::gi(&a),
         BenchCommand::Points(a) => super::bench_points::run(&a),
         BenchCommand::View(a) => super::bench_view::run(&a),
+        BenchCommand::Path(a) => path(&a),
     }
 }
 
@@ -320,6 +324,47 @@ fn whitted(a: &BenchWhittedArgs) -> Result<()> {
             out!("sky_map_cost_ratio={:.4}", medians[kernels] / medians[0]);
         }
         out!("ms_per_frame_median={:.3}", medians[0]);
+        Ok(())
+    })
+}
+
+fn path(a: &BenchPathArgs) -> Result<()> {
+    if a.frames == 0 || a.frames > 10_000 {
+        bail!("--frames {}: must be 1..=10000", a.frames);
+    }
+    let pool = input::thread_pool(a.threads)?;
+    let scene = input::load(Some(&a.scene), false)?;
+    let (w, h) = (a.width.unwrap_or(scene.render.width), a.height.unwrap_or(scene.render.height));
+    let image = ImageSettings { seed: a.seed, ..ImageSettings::new(w, h) };
+    image.validate()?;
+    let mut modes = glint_render::ModeSettings::from_defaults(&scene.render);
+    modes.path.spp = a.spp;
+    modes.path.max_bounces = a.max_bounces.unwrap_or(modes.path.max_bounces);
+    modes.path.filter = super::render::filter_from_args(a.filter, &clap_defaults::<FilterOptions>()?, w)?;
+    modes.path.validate().context("path settings")?;
+    let mode = Mode::Path(modes.path);
+    let camera = scene.camera;
+    pool.install(|| -> Result<()> {
+        let mut renderer = Renderer::new(scene)?;
+        renderer.render(&camera, &image, &mode, &Hooks::default())?; // warm-up
+        let (mut ms, mut mrays) = (Vec::with_capacity(a.frames), Vec::with_capacity(a.frames));
+        for _ in 0..a.frames {
+            let stats = renderer.render(&camera, &image, &mode, &Hooks::default())?;
+            ms.push(stats.elapsed.as_secs_f64() * 1e3);
+            mrays.push(stats.mrays_per_second());
+        }
+        let med = median(&mut ms);
+        let paths = f64::from(w) * f64::from(h) * f64::from(a.spp);
+        let mpaths = paths / med / 1e3;
+        out!(
+            "path {w}x{h}, {} spp, {} bounces, filter {}, {} threads: median {med:.2} ms/frame, {mpaths:.3} M paths/s, {:.1} Mrays/s",
+            a.spp,
+            modes.path.max_bounces,
+            modes.path.filter,
+            rayon::current_num_threads(),
+            median(&mut mrays),
+        );
+        out!("mpaths_per_s_median={mpaths:.4}");
         Ok(())
     })
 }
