@@ -2,7 +2,9 @@
 //! rest state, only the top level rebuilt; a deforming mesh's BVH refitted.
 
 use super::World;
-use super::instances::{Instance, Plane, object_curvature, top_level};
+use super::instances::{Instance, InstanceShape, Plane, object_curvature, top_level};
+use super::merged;
+use glint_accel::{BuildOptions, MeshBvh};
 use glint_core::{Affine3A, Vec3};
 use glint_scene::{AnimationTarget, Light, Shape};
 use std::sync::Arc;
@@ -19,6 +21,7 @@ impl World {
         if !matches!(self.instance_of_object.get(object), Some(Some(_))) {
             return false;
         }
+        self.pin(&[object]);
         self.scene.objects[object].world_from_object = world_from_object;
         self.place_object(object);
         self.rebuild_top_level();
@@ -82,6 +85,7 @@ impl World {
             }
             (_, Some(i)) => {
                 let inst = &self.instances[i];
+                debug_assert!(!inst.merged, "a moving object is pinned out of the merged tree first");
                 self.instances[i] =
                     Instance::new(inst.shape, inst.object, inst.material, o.world_from_object, inst.opaque);
                 true
@@ -98,12 +102,46 @@ impl World {
         }
         let mut new_mesh = (**m).clone();
         new_mesh.positions = positions;
+        let users: Vec<usize> = self
+            .instances
+            .iter()
+            .filter(|i| matches!(i.shape, InstanceShape::Mesh(k) if k == mesh))
+            .map(|i| i.object as usize)
+            .collect();
+        self.pin(&users);
         self.blas[mesh].refit(&new_mesh.positions);
         let new_mesh = Arc::new(new_mesh);
         self.meshes[mesh] = new_mesh.clone();
         self.scene.meshes[mesh] = new_mesh;
         self.rebuild_top_level();
         true
+    }
+
+    /// Keep `objects` out of the merged static tree from now on (they move or deform): the
+    /// tree is rebuilt without them, their meshes get trees of their own, the top level takes
+    /// them in.
+    pub(super) fn pin(&mut self, objects: &[usize]) {
+        let mut changed = false;
+        for &o in objects {
+            if let Some(p) = self.pinned.get_mut(o) {
+                changed |= !*p;
+                *p = true;
+            }
+        }
+        let merge = merged::mergeable(&self.instances, &self.meshes, &self.pinned);
+        if !changed || self.instances.iter().zip(&merge).all(|(i, &m)| i.merged == m) {
+            return;
+        }
+        let options = BuildOptions::default();
+        for (inst, &m) in self.instances.iter_mut().zip(&merge) {
+            if let (true, false, InstanceShape::Mesh(k)) = (inst.merged, m, inst.shape) {
+                let mesh = &self.meshes[k];
+                self.blas[k] = MeshBvh::build(&mesh.positions, &mesh.triangles, &options);
+            }
+            inst.merged = m;
+        }
+        self.merged = merged::build(&self.instances, &self.meshes, &merge);
+        self.rebuild_top_level();
     }
 
     fn rebuild_top_level(&mut self) {

@@ -1,8 +1,8 @@
 //! Eight rays at once (pipeline: batched integrators ask **World** what eight rays hit, and
 //! how much light passes along eight shadow rays), structure of arrays with active-lane masks.
 //!
-//! The sphere set and the planes are tested across the eight rays in one pass each; the other
-//! instances (meshes, transformed spheres) are visited flat, each behind a box test of all
+//! The sphere set and the planes are tested across the eight rays in one pass each, the merged
+//! static tree through `MeshBvh::intersect_batch`; the other instances (meshes, transformed spheres) are visited flat, each behind a box test of all
 //! eight rays against its world box, so a batch that misses an instance skips it whole, and a
 //! mesh is asked through `MeshBvh::intersect_batch` (the packet kernels beneath). The surface
 //! data of sphere-set and plane hits is computed across lanes; other hits lane by lane with
@@ -114,10 +114,22 @@ impl World {
             kind = U8x::select(take, U8x::splat(SET_SPHERE), kind);
             index = U8x::select(take, U8x::splat(inst), index);
         }
-        if self.tlas_used {
-            if self.top_members.len() > FLAT_TOP_LIMIT {
-                return self.intersect_lanes(rays, active);
+        if self.tlas_used && self.top_members.len() > FLAT_TOP_LIMIT {
+            return self.intersect_lanes(rays, active);
+        }
+        if let Some(merged) = &self.merged {
+            let near = Rays8 { tmax: best, ..*rays };
+            let hit = merged.bvh.intersect_batch(&near, active, &mut tri);
+            best = F8::select(hit, tri.t, best);
+            kind = U8x::select(hit, U8x::splat(TOP), kind);
+            // Back to the instance and its mesh's triangle, as the top level records them.
+            for i in 0..LANES {
+                if hit.lane(i) {
+                    (index[i], tri.prim[i]) = merged.owner(tri.prim[i]);
+                }
             }
+        }
+        if self.tlas_used {
             let inv = V8::new(F8::one() / rays.dir.x, F8::one() / rays.dir.y, F8::one() / rays.dir.z);
             for &(inst, ref bounds) in &self.top_members {
                 let near = Rays8 { tmax: best, ..*rays };
@@ -317,6 +329,12 @@ impl World {
                 blocked = blocked | crossed;
             } else {
                 pass *= crossing_factor(n, self.material(i.material).transparency);
+            }
+        }
+        if let Some(merged) = &self.merged {
+            let live = active.and_not(blocked);
+            if live.any() {
+                blocked = blocked | merged.bvh.occluded_batch(rays, live);
             }
         }
         let mut walk = M8::none_set();

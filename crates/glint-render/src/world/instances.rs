@@ -28,6 +28,8 @@ pub(super) struct Instance {
     pub(super) identity: bool,
     /// Every surface of this instance is opaque (shadow rays may stop at its first hit).
     pub(super) opaque: bool,
+    /// Its triangles are in the merged static tree ([`super::merged`]), not in the top level.
+    pub(super) merged: bool,
 }
 
 impl Instance {
@@ -48,6 +50,7 @@ impl Instance {
             object_from_world: world_from_object.inverse(),
             normal_from_object: Mat3::from(world_from_object.matrix3).inverse().transpose(),
             identity,
+            merged: false,
         }
     }
 }
@@ -93,7 +96,7 @@ pub(super) fn object_curvature(o: &Object) -> f32 {
     }
 }
 
-/// The top level: the sphere set and the BVH over every other instance.
+/// The top level: the sphere set and the BVH over every other instance not merged.
 pub(super) struct TopLevel {
     pub tlas: Tlas,
     /// Whether the TLAS holds any instance (not when every instance is in the sphere set):
@@ -123,6 +126,7 @@ pub(super) fn top_level(instances: &[Instance], blas: &[MeshBvh]) -> TopLevel {
                 ids.push(i as u32);
                 Bounds3::EMPTY // never visited by the TLAS
             }
+            _ if inst.merged => Bounds3::EMPTY, // in the merged tree
             _ => instance_bounds(inst, blas),
         })
         .collect();

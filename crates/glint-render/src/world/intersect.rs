@@ -5,6 +5,7 @@
 use super::World;
 use super::hit::SurfaceHit;
 use super::instances::{Found, InstanceShape, transform_ray};
+use super::merged::Merged;
 use glint_accel::{MeshBvh, primitives};
 use glint_core::Ray;
 
@@ -20,12 +21,13 @@ impl World {
     /// same hits bit for bit; coherent rays, e.g. neighbouring pixels, gain), else ray by ray.
     pub fn intersect8(&self, rays: &[Ray; 8], out: &mut [Option<SurfaceHit>; 8]) {
         match self.lone_mesh() {
-            Some(bvh) => {
+            Some(lone) => {
                 let mut hits = [None; 8];
-                bvh.intersect8(rays, &mut hits);
+                lone.bvh.intersect8(rays, &mut hits);
                 for ((o, h), r) in out.iter_mut().zip(hits).zip(rays) {
                     *o = h.and_then(|h| {
-                        self.surface_hit(r, Found::Instance { inst: 0, prim: h.prim, u: h.u, v: h.v }, h.t)
+                        let (inst, prim) = lone.owner(h.prim);
+                        self.surface_hit(r, Found::Instance { inst, prim, u: h.u, v: h.v }, h.t)
                     });
                 }
             }
@@ -47,12 +49,19 @@ impl World {
         }
     }
 
-    /// The mesh BVH of a scene that is exactly one untransformed mesh instance (no planes, no
-    /// spheres): there the 8-ray queries take the packet path of [`MeshBvh::intersect8`].
-    pub(super) fn lone_mesh(&self) -> Option<&MeshBvh> {
-        match self.instances.as_slice() {
-            [inst] if inst.identity && self.planes.is_empty() => match inst.shape {
-                InstanceShape::Mesh(m) => self.blas.get(m),
+    /// The one mesh tree of a scene whose every surface is in it (no planes, no spheres): one
+    /// untransformed mesh instance, or every instance merged ([`super::merged`]). There the
+    /// 8-ray queries take the packet path of [`MeshBvh::intersect8`].
+    pub(super) fn lone_mesh(&self) -> Option<LoneMesh<'_>> {
+        if !self.planes.is_empty() {
+            return None;
+        }
+        match (&self.merged, self.instances.as_slice()) {
+            (Some(merged), _) if !self.tlas_used && self.sphere_instances.is_empty() => {
+                Some(LoneMesh { bvh: &merged.bvh, merged: Some(merged) })
+            }
+            (None, [inst]) if inst.identity => match inst.shape {
+                InstanceShape::Mesh(m) => self.blas.get(m).map(|bvh| LoneMesh { bvh, merged: None }),
                 InstanceShape::Sphere { .. } => None,
             },
             _ => None,
@@ -70,9 +79,9 @@ impl World {
     /// `out[i] == hit_distance(&rays[i])` bit for bit.
     pub fn hit_distance8(&self, rays: &[Ray; 8], out: &mut [Option<f32>; 8]) {
         match self.lone_mesh() {
-            Some(bvh) => {
+            Some(lone) => {
                 let mut hits = [None; 8];
-                bvh.intersect8(rays, &mut hits);
+                lone.bvh.intersect8(rays, &mut hits);
                 for (o, h) in out.iter_mut().zip(hits) {
                     *o = h.map(|h| h.t);
                 }
@@ -104,6 +113,14 @@ impl World {
         } else if let Some((t, k)) = self.spheres.closest(ray) {
             found = Found::Instance { inst: self.sphere_instances[k as usize], prim: 0, u: 0.0, v: 0.0 };
             tmax = t;
+        }
+        if !transparent_only
+            && let Some(merged) = &self.merged
+            && let Some(h) = merged.bvh.intersect(&Ray { tmax, ..*ray })
+        {
+            let (inst, prim) = merged.owner(h.prim);
+            found = Found::Instance { inst, prim, u: h.u, v: h.v };
+            tmax = h.t;
         }
         let ray = &Ray { tmax, ..*ray };
         let leaf = |i: u32, t_limit: f32| {
@@ -142,5 +159,20 @@ impl World {
             }
         }
         (found, tmax)
+    }
+}
+
+/// The tree of a scene that is one mesh (see [`World::lone_mesh`]) and the way back to its
+/// instances.
+pub(super) struct LoneMesh<'a> {
+    pub(super) bvh: &'a MeshBvh,
+    merged: Option<&'a Merged>,
+}
+
+impl LoneMesh<'_> {
+    /// Instance and mesh triangle of the tree's triangle `prim`.
+    #[inline]
+    fn owner(&self, prim: u32) -> (u32, u32) {
+        self.merged.map_or((0, prim), |m| m.owner(prim))
     }
 }

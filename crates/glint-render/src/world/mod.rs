@@ -21,6 +21,7 @@ mod emitters;
 mod hit;
 mod instances;
 mod intersect;
+mod merged;
 mod shadows;
 #[cfg(test)]
 mod tests;
@@ -65,6 +66,10 @@ pub struct World {
     sphere_instances: Vec<u32>,
     /// The TLAS's members and their world boxes (see [`instances::TopLevel::members`]).
     top_members: Vec<(u32, Bounds3)>,
+    /// Static meshes in one world-space tree, tested beside the top level ([`merged`]).
+    merged: Option<merged::Merged>,
+    /// Objects that must stay instances (animated, moved or deformed), by object index.
+    pinned: Vec<bool>,
     planes: Vec<Plane>,
     /// Instance index of each object (None for planes).
     instance_of_object: Vec<Option<usize>>,
@@ -83,8 +88,6 @@ impl World {
         let start = std::time::Instant::now();
         let options = BuildOptions::default();
         let meshes = scene.meshes.clone();
-        let blas: Vec<MeshBvh> =
-            meshes.par_iter().map(|m| MeshBvh::build(&m.positions, &m.triangles, &options)).collect();
         let transparent = |m: usize| scene.materials[m].is_transparent();
         let mesh_opaque = |mesh: usize, object_material: usize| match &meshes[mesh].triangle_materials {
             Some(ms) => ms.iter().all(|&m| !transparent(m as usize)),
@@ -123,6 +126,40 @@ impl World {
                 }
             }
         }
+        // Animated objects stay instances; the other static meshes go into one tree.
+        let mut pinned = vec![false; scene.objects.len()];
+        for a in &scene.animations {
+            if let glint_scene::AnimationTarget::Object(i) = a.target
+                && let Some(p) = pinned.get_mut(i)
+            {
+                *p = true;
+            }
+        }
+        let merge = merged::mergeable(&instances, &meshes, &pinned);
+        let mut in_merged = vec![false; meshes.len()];
+        for (inst, &m) in instances.iter_mut().zip(&merge) {
+            inst.merged = m;
+            if let (true, InstanceShape::Mesh(k)) = (m, inst.shape) {
+                in_merged[k] = true;
+            }
+        }
+        // A merged mesh needs no tree of its own (one is built if it ever leaves).
+        let (blas, merged): (Vec<MeshBvh>, _) = rayon::join(
+            || {
+                meshes
+                    .par_iter()
+                    .zip(&in_merged)
+                    .map(|(m, &skip)| {
+                        if skip {
+                            MeshBvh::build(&[], &[], &options)
+                        } else {
+                            MeshBvh::build(&m.positions, &m.triangles, &options)
+                        }
+                    })
+                    .collect()
+            },
+            || merged::build(&instances, &meshes, &merge),
+        );
         let top = top_level(&instances, &blas);
         let any_transparent = scene.materials.iter().any(Material::is_transparent);
         let sky_irradiance = scene.sky_ambient.then(|| scene.sky.irradiance_sh());
@@ -132,7 +169,7 @@ impl World {
             instances: instances.len(),
             spheres: instances.iter().filter(|i| matches!(i.shape, InstanceShape::Sphere { .. })).count(),
             planes: planes.len(),
-            node_bytes: blas.iter().map(|b| b.stats().node_bytes).sum(),
+            node_bytes: blas.iter().chain(merged.as_ref().map(|m| &m.bvh)).map(|b| b.stats().node_bytes).sum(),
             build_ms: start.elapsed().as_secs_f64() * 1e3,
         };
         Self {
@@ -146,6 +183,8 @@ impl World {
             spheres: top.spheres,
             sphere_instances: top.sphere_instances,
             top_members: top.members,
+            merged,
+            pinned,
             planes,
             instance_of_object,
             any_transparent,

@@ -12,7 +12,7 @@ impl World {
     /// [`World::occluded`] of up to 8 rays: `out[i] == occluded(&rays[i])`.
     pub fn occluded8(&self, rays: &[Ray; 8], out: &mut [bool; 8]) {
         match self.lone_mesh() {
-            Some(bvh) => bvh.occluded8(rays, out),
+            Some(lone) => lone.bvh.occluded8(rays, out),
             None => {
                 for (o, r) in out.iter_mut().zip(rays) {
                     *o = self.occluded(r);
@@ -33,6 +33,12 @@ impl World {
             if (!opaque_only || p.opaque) && primitives::intersect_plane(ray, p.normal, p.offset).is_some() {
                 return true;
             }
+        }
+        // The merged tree holds opaque meshes only.
+        if let Some(merged) = &self.merged
+            && merged.bvh.occluded(ray)
+        {
+            return true;
         }
         if self
             .spheres
@@ -83,7 +89,7 @@ impl World {
             }
             inst.opaque
         });
-        if blocked {
+        if blocked || self.merged.as_ref().is_some_and(|m| m.bvh.occluded(ray)) {
             return Rgb::ZERO;
         }
         let mut walk = false;

@@ -345,3 +345,76 @@ fn batches_equal_single_rays_with<I: glint_accel::lanes::Isa>() {
     }
     assert!(hits > 1000 && kinds.len() >= 6 && partial > 20, "{hits} hits on {kinds:?}, {partial} partial shadows");
 }
+
+/// Three meshes (one moved, one mirrored) and a transparent one: the merged tree answers what
+/// the instances answered — same surface, object and triangle, distances equal up to rounding,
+/// the same occlusion — and an object moved later leaves the tree and is found where it went.
+#[test]
+fn the_merged_tree_finds_what_the_instances_find() {
+    let ball = |n| {
+        let m = displaced_sphere(n);
+        Arc::new(Mesh { name: "ball".into(), positions: m.positions, triangles: m.triangles, ..Mesh::default() })
+    };
+    let placed =
+        |mesh, material, w| Object { name: "o".into(), shape: Shape::Mesh(mesh), material, world_from_object: w };
+    let scene = Scene {
+        camera: Camera { position: Vec3::new(0.0, 0.3, 6.0), forward: -Vec3::Z, up: Vec3::Y, fov: Fov::Vertical(50.0) },
+        materials: vec![Material::default(), Material { transparency: 0.5, ..Material::default() }],
+        meshes: vec![ball(2_000), ball(3_000), ball(1_000), ball(500)],
+        objects: vec![
+            placed(0, 0, Affine3A::IDENTITY),
+            placed(
+                1,
+                0,
+                Affine3A::from_scale_rotation_translation(
+                    Vec3::new(0.7, 1.2, 0.9),
+                    Quat::from_rotation_y(0.6),
+                    Vec3::new(1.4, 0.2, -0.5),
+                ),
+            ),
+            placed(
+                2,
+                0,
+                Affine3A::from_scale(Vec3::new(-1.0, 1.0, 1.0)) * Affine3A::from_translation(Vec3::new(1.5, -0.4, 0.8)),
+            ),
+            placed(3, 1, Affine3A::from_translation(Vec3::new(0.0, 1.3, 0.5))),
+        ],
+        ..Scene::default()
+    };
+    scene.validate().expect("valid scene");
+    let merged = World::new(scene.clone());
+    let merged_triangles: usize = (0..3).map(|m| merged.meshes[m].triangles.len()).sum();
+    assert_eq!(merged.merged.as_ref().map(|m| m.owner.len()), Some(merged_triangles));
+    let members: Vec<bool> = merged.instances.iter().map(|i| i.merged).collect();
+    assert_eq!(members, [true, true, true, false], "opaque static meshes merged, the transparent one not");
+    let mut apart = World::new(scene);
+    apart.pin(&[0, 1, 2, 3]);
+    assert!(apart.merged.is_none() && apart.instances.iter().all(|i| !i.merged));
+    let cam = merged.scene().camera.rays(64, 48);
+    let light = Vec3::new(3.0, 4.0, 5.0);
+    let (mut hits, mut same) = (0, 0);
+    for y in 0..48 {
+        for x in 0..64 {
+            let ray = cam.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+            let (a, b) = (merged.intersect(&ray), apart.intersect(&ray));
+            assert_eq!(a.is_some(), b.is_some(), "pixel ({x}, {y}) {a:?} {b:?}");
+            let (Some(a), Some(b)) = (a, b) else { continue };
+            hits += 1;
+            assert!((a.t - b.t).abs() <= 1e-5 * a.t, "pixel ({x}, {y}): t {} vs {}", a.t, b.t);
+            same += ((a.object, a.prim, a.material) == (b.object, b.prim, b.material)
+                && (a.shading_normal - b.shading_normal).length() < 1e-4) as usize;
+            let shadow = a.spawn_ray_to(light);
+            assert_eq!(merged.occluded(&shadow), apart.occluded(&shadow), "pixel ({x}, {y})");
+            assert_eq!(merged.transmittance(&shadow), apart.transmittance(&shadow), "pixel ({x}, {y})");
+        }
+    }
+    // Rounding may move a hit across an edge of two triangles; never to another object.
+    assert!(hits > 500 && same * 1000 >= hits * 998, "{same} of {hits} hits on the same triangle");
+    // Object 1 moves: it leaves the merged tree and is hit where it went.
+    let mut moving = merged;
+    let up = Affine3A::from_translation(Vec3::new(0.0, 20.0, 0.0));
+    assert!(moving.set_transform(1, up));
+    assert!(!moving.instances[1].merged);
+    let probe = Ray::new(Vec3::new(0.0, 20.0, 6.0), -Vec3::Z);
+    assert_eq!(moving.intersect(&probe).map(|h| h.object), Some(1));
+}
