@@ -470,6 +470,26 @@ pub struct BenchPathArgs {
     pub seed: u64,
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Path tracer(s) to time, comma-separated: wavefront (breadth first, rays eight at a
+    /// time), recursive (depth first, one sample after another). Frames of several kernels are
+    /// interleaved; the last line is the first kernel's.
+    #[arg(long, value_delimiter = ',', value_enum, default_value = "wavefront")]
+    pub kernel: Vec<PathKernelArg>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PathKernelArg {
+    Wavefront,
+    Recursive,
+}
+
+impl From<PathKernelArg> for glint_render::path::PathKernel {
+    fn from(k: PathKernelArg) -> Self {
+        match k {
+            PathKernelArg::Wavefront => glint_render::path::PathKernel::Wavefront,
+            PathKernelArg::Recursive => glint_render::path::PathKernel::Recursive,
+        }
+    }
 }
 
 #[derive(Args, Debug)]

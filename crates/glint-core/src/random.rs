@@ -27,7 +27,7 @@ pub fn unit_float(h: u64) -> f32 {
 
 /// The random stream of one sample of one pixel: dimension `d` of it is
 /// `unit_float(hash4(pixel, sample, d, seed))`. Consecutive calls take consecutive dimensions.
-#[derive(Clone, Debug)]
+#[derive(Clone, Copy, Debug)]
 pub struct SampleStream {
     base: u64,
     dimension: u64,

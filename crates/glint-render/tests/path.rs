@@ -9,7 +9,7 @@ mod common;
 use common::{add_path_pass, path_frame, settings};
 use glint_core::{Affine3A, Rgb, Vec3};
 use glint_filter::{Filter, GuidedParams};
-use glint_render::path::PathSettings;
+use glint_render::path::{PathAccumulator, PathKernel, PathSettings};
 use glint_render::{Film, World};
 use glint_scene::{Camera, Fov, Material, Object, Scene, Shape, Sky};
 use std::sync::Arc;
@@ -29,6 +29,7 @@ fn path(spp: u32, bounces: u32, filter: Filter) -> PathSettings {
         time_budget: None,
         clamp_indirect: None,
         filter_area_direct: false,
+        kernel: PathKernel::Wavefront,
     }
 }
 
@@ -392,4 +393,154 @@ fn the_default_guided_render_is_clean() {
     let plain = mse(&path(1, 3, Filter::None));
     let filtered = mse(&PathSettings { filter_area_direct: true, ..path(1, 3, guided) });
     assert!(filtered <= plain / 3.0, "guided {filtered:e} vs plain {plain:e}");
+}
+
+/// Mitsuba's Cornell box (diffuse walls, a one-sided area light) as the scenes/ file has it.
+fn mitsuba_cbox() -> Scene {
+    let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/mitsuba-cbox.toml"));
+    glint_formats::load(path).expect("scenes/mitsuba-cbox.toml").scene
+}
+
+/// The wavefront tracer is the recursive one with its work reordered: where no surface has a
+/// delta lobe, both read the same random numbers, so every frame — plain, guided (guide rays,
+/// filter, lookups), progressive passes — is the same picture up to the order of float
+/// additions, and the same rays are counted.
+#[test]
+fn wavefront_and_recursive_tracers_agree_without_delta_lobes() {
+    let world = World::new(mitsuba_cbox());
+    let guided = Filter::Guided(GuidedParams::for_width(32));
+    let s = settings(32, 32);
+    for p in [
+        path(3, 4, Filter::None),
+        PathSettings { rr_start: 2, ..path(2, 6, Filter::None) },
+        PathSettings { filter_area_direct: true, ..path(3, 3, guided) },
+        path(1, 2, guided),
+    ] {
+        let frame = |kernel| path_frame(&world, &s, &PathSettings { kernel, ..p }).expect("render");
+        let (a, sa) = frame(PathKernel::Wavefront);
+        let (b, sb) = frame(PathKernel::Recursive);
+        assert_eq!(sa.rays.total(), sb.rays.total(), "{p:?}: ray counts");
+        let mut lit = 0;
+        for (i, (x, y)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+            for (u, v) in [(x.colour, y.colour), (x.direct, y.direct), (x.indirect, y.indirect), (x.albedo, y.albedo)] {
+                let tol = 1e-4 * u.abs().max(v.abs()).max_element().max(1e-3);
+                assert!((u - v).abs().max_element() <= tol, "{p:?}: pixel {i}: {u} vs {v}");
+            }
+            assert_eq!((x.normal, x.depth, x.coverage), (y.normal, y.depth, y.coverage), "pixel {i}");
+            lit += (x.colour.max_element() > 0.01) as usize;
+        }
+        assert!(lit > 600, "{lit} lit pixels");
+    }
+    let mut acc = [PathAccumulator::new(), PathAccumulator::new()];
+    for (acc, kernel) in acc.iter_mut().zip([PathKernel::Wavefront, PathKernel::Recursive]) {
+        for _ in 0..2 {
+            add_path_pass(acc, &world, &s, &PathSettings { kernel, ..path(2, 3, Filter::None) }).expect("pass");
+        }
+    }
+    let films = acc.map(|mut a| {
+        let mut film = Film::new(1, 1);
+        a.resolve(&world, &guided, &mut film).expect("resolve");
+        film
+    });
+    for (i, (x, y)) in films[0].pixels.iter().zip(&films[1].pixels).enumerate() {
+        let tol = 1e-4 * x.colour.abs().max(y.colour.abs()).max_element().max(1e-3);
+        assert!((x.colour - y.colour).abs().max_element() <= tol, "progressive pixel {i}");
+    }
+}
+
+/// Where guide vertices also follow mirror and glass lobes, the wavefront tracer runs those
+/// beside the indirect path on their own random dimensions: a different picture, the same
+/// estimator. Many independent frames of each tracer (disjoint seeds) give per-pixel means
+/// whose difference is tested against its standard error (Welch's t, Bonferroni over every
+/// pixel and channel, as Mitsuba's per-pixel z-tests), and the image means must agree too.
+#[test]
+fn wavefront_and_recursive_tracers_agree_in_distribution() {
+    let quad = glint_scene::Mesh {
+        name: "light".into(),
+        positions: vec![
+            Vec3::new(-0.5, 1.99, -0.5),
+            Vec3::new(0.5, 1.99, -0.5),
+            Vec3::new(0.5, 1.99, 0.5),
+            Vec3::new(-0.5, 1.99, 0.5),
+        ],
+        triangles: vec![[0, 2, 1], [0, 3, 2]],
+        ..glint_scene::Mesh::default()
+    };
+    // Mostly diffuse (p_delta < 0.5): their guide vertices follow the delta lobes as tails.
+    let glassy = Material { transparency: 0.25, reflectivity: 0.05, ior: 1.5, ..white_diffuse(0.7) };
+    let mirrorish = Material { reflectivity: 0.3, ..white_diffuse(0.6) };
+    let scene = Scene {
+        // From above: the floor's mirror lobe shows the light's reflection.
+        camera: Camera::look_at(Vec3::new(0.0, 2.5, 4.0), Vec3::new(0.0, 0.3, 0.0), Vec3::Y, Fov::Vertical(50.0)),
+        sky: Sky::Colour(Rgb::new(0.5, 0.55, 0.7)),
+        materials: vec![
+            white_diffuse(0.8),
+            mirrorish,
+            glassy,
+            Material { emission: Rgb::splat(6.0), ..white_diffuse(0.0) },
+            // A back wall the sky shows through (its transmission lobe).
+            Material { transparency: 0.3, ..white_diffuse(0.6) },
+        ],
+        meshes: vec![Arc::new(quad)],
+        objects: vec![
+            object(Shape::Plane { normal: Vec3::Y, offset: 0.0 }, 1),
+            object(Shape::Plane { normal: Vec3::Z, offset: 1.5 }, 4),
+            object(Shape::Sphere { centre: Vec3::new(-0.5, 0.6, 0.0), radius: 0.6 }, 2),
+            object(Shape::Sphere { centre: Vec3::new(0.7, 0.4, 0.4), radius: 0.4 }, 1),
+            object(Shape::Mesh(0), 3),
+        ],
+        ..Scene::default()
+    };
+    scene.validate().expect("valid scene");
+    let world = World::new(scene);
+    let (w, h, frames) = (16u32, 16u32, 96u64);
+    // Per kernel: per-pixel, per-channel sum and sum of squares over the frames.
+    let stats = |kernel: PathKernel, seed0: u64| {
+        let mut sum = vec![[0.0f64; 3]; (w * h) as usize];
+        let mut sq = sum.clone();
+        for f in 0..frames {
+            let s = common::Settings { seed: seed0 + f, ..settings(w, h) };
+            let film = path_frame(&world, &s, &PathSettings { kernel, ..path(8, 3, Filter::None) }).expect("render").0;
+            for (i, p) in film.pixels.iter().enumerate() {
+                for c in 0..3 {
+                    let v = f64::from(p.colour[c]);
+                    sum[i][c] += v;
+                    sq[i][c] += v * v;
+                }
+            }
+        }
+        (sum, sq)
+    };
+    let a = stats(PathKernel::Wavefront, 1000);
+    let b = stats(PathKernel::Recursive, 0);
+    let n = frames as f64;
+    let moments = |(sum, sq): &(Vec<[f64; 3]>, Vec<[f64; 3]>), i: usize, c: usize| {
+        let mean = sum[i][c] / n;
+        (mean, ((sq[i][c] / n - mean * mean) * n / (n - 1.0)).max(0.0))
+    };
+    // Two-sided p = 0.01 over 768 tests (Bonferroni): |z| < 4.4; 5.0 leaves room for the
+    // heavy tails of glass paths' variance estimates. A 10 % error in the delta lobes' weight,
+    // or a lobe dropped, fails (checked by breaking the tracer on purpose).
+    let mut worst = (0.0f64, 0usize);
+    let (mut total_a, mut total_b, mut var_a, mut var_b) = (0.0, 0.0, 0.0, 0.0);
+    for i in 0..(w * h) as usize {
+        for c in 0..3 {
+            let ((ma, va), (mb, vb)) = (moments(&a, i, c), moments(&b, i, c));
+            (total_a, total_b, var_a, var_b) = (total_a + ma, total_b + mb, var_a + va, var_b + vb);
+            let se = (va / n + vb / n).sqrt();
+            if se > 0.0 {
+                let t = (ma - mb).abs() / se;
+                if t > worst.0 {
+                    worst = (t, i);
+                }
+            } else {
+                assert_eq!(ma, mb, "pixel {i} channel {c}: constant but different");
+            }
+        }
+    }
+    assert!(worst.0 < 5.0, "pixel {}: |t| = {:.2}", worst.1, worst.0);
+    // The whole image: its mean (pixels are independent across frames) within 4 standard errors.
+    let se = (var_a / n + var_b / n).sqrt();
+    assert!((total_a - total_b).abs() < 4.0 * se, "image sums {total_a} vs {total_b} ± {se}");
+    assert!(total_a > 10.0, "a lit picture: {total_a}");
 }

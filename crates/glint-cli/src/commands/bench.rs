@@ -2,8 +2,8 @@
 //! it for the Embree scripts in ../shared/bench); `whitted` times whole frames.
 
 use crate::cli::{
-    BenchCommand, BenchPathArgs, BenchRaysArgs, BenchWhittedArgs, FilterOptions, KernelArg, RayKind, ScheduleArg,
-    clap_defaults,
+    BenchCommand, BenchPathArgs, BenchRaysArgs, BenchWhittedArgs, FilterOptions, KernelArg, PathKernelArg, RayKind,
+    ScheduleArg, clap_defaults,
 };
 use crate::input;
 use anyhow::{Context, Result, bail};
@@ -342,28 +342,42 @@ fn path(a: &BenchPathArgs) -> Result<()> {
     modes.path.max_bounces = a.max_bounces.unwrap_or(modes.path.max_bounces);
     modes.path.filter = super::render::filter_from_args(a.filter, &clap_defaults::<FilterOptions>()?, w)?;
     modes.path.validate().context("path settings")?;
-    let mode = Mode::Path(modes.path);
+    if a.kernel.is_empty() {
+        bail!("--kernel: name at least one path tracer");
+    }
+    let path = modes.path;
     let camera = scene.camera;
     pool.install(|| -> Result<()> {
         let mut renderer = Renderer::new(scene)?;
-        renderer.render(&camera, &image, &mode, &Hooks::default())?; // warm-up
-        let (mut ms, mut mrays) = (Vec::with_capacity(a.frames), Vec::with_capacity(a.frames));
-        for _ in 0..a.frames {
-            let stats = renderer.render(&camera, &image, &mode, &Hooks::default())?;
-            ms.push(stats.elapsed.as_secs_f64() * 1e3);
-            mrays.push(stats.mrays_per_second());
+        let mode = |k: PathKernelArg| Mode::Path(glint_render::path::PathSettings { kernel: k.into(), ..path });
+        for &k in &a.kernel {
+            renderer.render(&camera, &image, &mode(k), &Hooks::default())?; // warm-up
         }
-        let med = median(&mut ms);
+        let n = a.kernel.len();
+        let (mut ms, mut mrays) = (vec![Vec::with_capacity(a.frames); n], vec![Vec::with_capacity(a.frames); n]);
+        for _ in 0..a.frames {
+            for (i, &k) in a.kernel.iter().enumerate() {
+                let stats = renderer.render(&camera, &image, &mode(k), &Hooks::default())?;
+                ms[i].push(stats.elapsed.as_secs_f64() * 1e3);
+                mrays[i].push(stats.mrays_per_second());
+            }
+        }
         let paths = f64::from(w) * f64::from(h) * f64::from(a.spp);
-        let mpaths = paths / med / 1e3;
-        out!(
-            "path {w}x{h}, {} spp, {} bounces, filter {}, {} threads: median {med:.2} ms/frame, {mpaths:.3} M paths/s, {:.1} Mrays/s",
-            a.spp,
-            modes.path.max_bounces,
-            modes.path.filter,
-            rayon::current_num_threads(),
-            median(&mut mrays),
-        );
+        let mut mpaths = Vec::with_capacity(n);
+        for (i, k) in a.kernel.iter().enumerate() {
+            let med = median(&mut ms[i]);
+            mpaths.push(paths / med / 1e3);
+            out!(
+                "path {w}x{h}, {} spp, {} bounces, filter {}, {} threads, {k:?}: median {med:.2} ms/frame, {:.3} M paths/s, {:.1} Mrays/s",
+                a.spp,
+                path.max_bounces,
+                path.filter,
+                rayon::current_num_threads(),
+                mpaths[i],
+                median(&mut mrays[i]),
+            );
+        }
+        let mpaths = mpaths[0];
         out!("mpaths_per_s_median={mpaths:.4}");
         Ok(())
     })

@@ -42,7 +42,7 @@ pub struct PathParams {
 
 /// Scale `c` down so that its largest component is at most `limit`.
 #[inline]
-fn clamp_radiance(c: Rgb, limit: f32) -> Rgb {
+pub(super) fn clamp_radiance(c: Rgb, limit: f32) -> Rgb {
     let m = c.max_element();
     if m > limit { c * (limit / m) } else { c }
 }
@@ -87,12 +87,26 @@ impl CameraSample {
 
 /// How the previous vertex sampled the ray that arrives at the current one (for MIS).
 #[derive(Clone, Copy)]
-struct Arrival {
-    pdf: f32,
-    delta: bool,
+pub(super) struct Arrival {
+    pub(super) pdf: f32,
+    pub(super) delta: bool,
     /// Right after the guide vertex: emitters that NEE samples add nothing.
-    after_guide: bool,
-    from: Vec3,
+    pub(super) after_guide: bool,
+    pub(super) from: Vec3,
+}
+
+impl Arrival {
+    /// The MIS weight of emission found along the arriving ray, whose light-sampling pdf is
+    /// `p_light` (None: next-event estimation cannot sample that emitter). Right after the
+    /// guide vertex, sampled emitters add nothing (the guide vertex's light sample has them).
+    #[inline]
+    pub(super) fn emission_weight(&self, p_light: Option<f32>) -> f32 {
+        match (self.delta, p_light) {
+            (true, _) | (false, None) => 1.0,
+            (false, Some(_)) if self.after_guide => 0.0,
+            (false, Some(p_light)) => power_heuristic(self.pdf, p_light),
+        }
+    }
 }
 
 pub struct Integrator<'a> {
@@ -114,16 +128,61 @@ fn orient(hit: &SurfaceHit, dir: Vec3) -> (bool, Vec3, Vec3, Vec3) {
     }
 }
 
+/// The BSDF at `hit` seen along `dir`, and the radiance the surface emits back along it.
+#[inline]
+pub(super) fn bsdf_at(world: &World, hit: &SurfaceHit, dir: Vec3) -> (Bsdf, Rgb) {
+    let m = world.material(hit.material);
+    let albedo = world.albedo(hit);
+    let (entering, ng, ns, wo) = orient(hit, dir);
+    (Bsdf::new(m, albedo, wo, ns, ng, entering), m.emitted(hit.geometric_normal, wo))
+}
+
+/// The light samples of next-event estimation at `hit`: every delta light of
+/// [`LightSet::each_delta`] plus one sample among the other lights (`mis`: weighted against
+/// BSDF sampling). For each that the BSDF does not turn away, `visit(shadow ray, f·cos·L/pdf ×
+/// MIS weight, its diffuse part demodulated)` — the last nonzero only for the sampled light —
+/// to be added where the shadow ray finds nothing in the way. Counts the shadow rays.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub(super) fn light_samples(
+    lights: &LightSet,
+    world: &World,
+    hit: &SurfaceHit,
+    bsdf: &Bsdf,
+    stream: &mut SampleStream,
+    mis: bool,
+    counts: &mut RayCounts,
+    mut visit: impl FnMut(&Ray, Rgb, Rgb),
+) {
+    for light in lights.each_delta() {
+        let Some(ls) = LightSet::delta_sample(light, hit) else { continue };
+        let f = bsdf.eval_cos(ls.wi);
+        if f.max_element() > 0.0 {
+            counts.shadow += 1;
+            visit(&ls.shadow, f * ls.weight, Rgb::ZERO);
+        }
+    }
+    let u_choice = stream.next_1d();
+    let u = stream.next_2d();
+    if let Some(ls) = lights.sample(world, hit, u_choice, u) {
+        let f = bsdf.eval_cos(ls.wi);
+        if f.max_element() > 0.0 {
+            counts.shadow += 1;
+            let w = if ls.pdf == 0.0 || !mis { 1.0 } else { power_heuristic(ls.pdf, bsdf.pdf(ls.wi)) };
+            let diffuse =
+                if ls.pdf > 0.0 { ls.weight * (w * bsdf.normal.dot(ls.wi).max(0.0) * FRAC_1_PI) } else { Rgb::ZERO };
+            visit(&ls.shadow, f * ls.weight * w, diffuse);
+        }
+    }
+}
+
 impl<'a> Integrator<'a> {
     pub fn new(world: &'a World, lights: &'a LightSet, params: PathParams) -> Self {
         Self { world, lights, params, counts: RayCounts::default() }
     }
 
     fn bsdf_at(&self, hit: &SurfaceHit, dir: Vec3) -> (Bsdf, Rgb) {
-        let m = self.world.material(hit.material);
-        let albedo = self.world.albedo(hit);
-        let (entering, ng, ns, wo) = orient(hit, dir);
-        (Bsdf::new(m, albedo, wo, ns, ng, entering), m.emitted(hit.geometric_normal, wo))
+        bsdf_at(self.world, hit, dir)
     }
 
     /// Trace one camera sample whose primary ray's closest hit is `first` (found by a single
@@ -259,31 +318,13 @@ impl<'a> Integrator<'a> {
     ) -> (Rgb, Rgb) {
         let mut sum = Rgb::ZERO;
         let mut sampled_diffuse = Rgb::ZERO;
-        for light in self.lights.each_delta() {
-            let Some(ls) = LightSet::delta_sample(light, hit) else { continue };
-            let f = bsdf.eval_cos(ls.wi);
-            if f.max_element() > 0.0 {
-                self.counts.shadow += 1;
-                if !self.world.occluded(&ls.shadow) {
-                    sum += f * ls.weight;
-                }
+        let world = self.world;
+        light_samples(self.lights, world, hit, bsdf, stream, mis, &mut self.counts, |shadow, c, d| {
+            if !world.occluded(shadow) {
+                sum += c;
+                sampled_diffuse += d;
             }
-        }
-        let u_choice = stream.next_1d();
-        let u = stream.next_2d();
-        if let Some(ls) = self.lights.sample(self.world, hit, u_choice, u) {
-            let f = bsdf.eval_cos(ls.wi);
-            if f.max_element() > 0.0 {
-                self.counts.shadow += 1;
-                if !self.world.occluded(&ls.shadow) {
-                    let w = if ls.pdf == 0.0 || !mis { 1.0 } else { power_heuristic(ls.pdf, bsdf.pdf(ls.wi)) };
-                    sum += f * ls.weight * w;
-                    if ls.pdf > 0.0 {
-                        sampled_diffuse = ls.weight * (w * bsdf.normal.dot(ls.wi).max(0.0) * FRAC_1_PI);
-                    }
-                }
-            }
-        }
+        });
         (sum, sampled_diffuse)
     }
 
@@ -295,11 +336,7 @@ impl<'a> Integrator<'a> {
         loop {
             self.counts.secondary += 1;
             let Some(hit) = self.world.intersect(&ray) else {
-                let weight = match (arrival.delta, self.lights.pdf_sky(self.world, ray.dir)) {
-                    (true, _) | (false, None) => 1.0,
-                    (false, Some(_)) if arrival.after_guide => 0.0,
-                    (false, Some(p_light)) => power_heuristic(arrival.pdf, p_light),
-                };
+                let weight = arrival.emission_weight(self.lights.pdf_sky(self.world, ray.dir));
                 if weight > 0.0 {
                     radiance += beta * self.world.sky().radiance(ray.dir) * weight;
                 }
@@ -307,11 +344,7 @@ impl<'a> Integrator<'a> {
             };
             let (bsdf, emission) = self.bsdf_at(&hit, ray.dir);
             if emission.max_element() > 0.0 {
-                let weight = match (arrival.delta, self.lights.pdf_surface(arrival.from, ray.dir, &hit)) {
-                    (true, _) | (false, None) => 1.0,
-                    (false, Some(_)) if arrival.after_guide => 0.0,
-                    (false, Some(p_light)) => power_heuristic(arrival.pdf, p_light),
-                };
+                let weight = arrival.emission_weight(self.lights.pdf_surface(arrival.from, ray.dir, &hit));
                 radiance += beta * emission * weight;
             }
             if bsdf.has_non_delta() {

@@ -22,6 +22,7 @@ mod integrator;
 mod lights;
 mod lookup;
 mod progressive;
+mod wavefront;
 
 use crate::bands::{self, Hooks};
 use crate::film::{Film, FilmPixel};
@@ -39,6 +40,7 @@ use lookup::GuideMap;
 pub use progressive::PathAccumulator;
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
+use wavefront::{Request, Wavefront};
 
 /// Rows per unit of parallel work.
 const BAND_ROWS: usize = 4;
@@ -68,6 +70,19 @@ pub struct PathSettings {
     /// point lights; its tables are reproduced with it). Point, spot and directional lights
     /// are never filtered (sharp shadows).
     pub filter_area_direct: bool,
+    pub kernel: PathKernel,
+}
+
+/// How the path tracer runs its samples (the same estimator either way; BENCHMARKS.md §6
+/// compares their speed, tests/path.rs their pictures).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum PathKernel {
+    /// Breadth first: a band's paths traced one bounce at a time, binned by direction, rays
+    /// and shadow rays asked eight at a time ([`wavefront`]).
+    #[default]
+    Wavefront,
+    /// Depth first, one camera sample after another (the oracle).
+    Recursive,
 }
 
 impl Default for PathSettings {
@@ -82,6 +97,7 @@ impl Default for PathSettings {
             time_budget: None,
             clamp_indirect: None,
             filter_area_direct: true,
+            kernel: PathKernel::default(),
         }
     }
 }
@@ -216,6 +232,83 @@ impl Frame {
     }
 }
 
+/// Camera samples traced per run of the wavefront tracer: a pool of a few thousand paths,
+/// whose queues stay in the worker's cache.
+const RUN_SAMPLES: usize = 4096;
+
+/// A worker's tracer of camera samples, by [`PathKernel`].
+enum Tracer<'a> {
+    Wavefront { wavefront: Box<Wavefront<'a>>, requests: Vec<Request>, out: Vec<(Vec2, CameraSample)> },
+    Recursive { frame: &'a Frame, it: Integrator<'a> },
+}
+
+impl<'a> Tracer<'a> {
+    fn new(world: &'a World, frame: &'a Frame, kernel: PathKernel) -> Self {
+        match kernel {
+            PathKernel::Wavefront => Tracer::Wavefront {
+                wavefront: Box::new(Wavefront::new(world, frame)),
+                requests: Vec::new(),
+                out: Vec::new(),
+            },
+            PathKernel::Recursive => {
+                Tracer::Recursive { frame, it: Integrator::new(world, &frame.lights, frame.params) }
+            }
+        }
+    }
+
+    fn counts(&self) -> crate::stats::RayCounts {
+        match self {
+            Tracer::Wavefront { wavefront, .. } => wavefront.counts,
+            Tracer::Recursive { it, .. } => it.counts,
+        }
+    }
+
+    /// Trace samples `0..count` of each of `pixels` pixels (`request(k, s)` says which) and
+    /// hand each to `take(k, s, image position, sample)`, pixel by pixel, each pixel's samples
+    /// in order (so sums come out in the same order whatever the kernel).
+    fn samples(
+        &mut self,
+        pixels: usize,
+        count: u64,
+        request: impl Fn(usize, u64) -> Request,
+        mut take: impl FnMut(usize, u64, Vec2, &CameraSample),
+    ) {
+        if count == 0 {
+            return;
+        }
+        match self {
+            Tracer::Recursive { frame, it } => {
+                for k in 0..pixels {
+                    for s in 0..count {
+                        let r = request(k, s);
+                        let (pos, cs) = frame.sample(it, r.x, r.y, r.index, r.centre, r.mode);
+                        take(k, s, pos, &cs);
+                    }
+                }
+            }
+            Tracer::Wavefront { wavefront, requests, out } => {
+                let per_run = (RUN_SAMPLES as u64 / count).max(1) as usize;
+                for first in (0..pixels).step_by(per_run) {
+                    let last = (first + per_run).min(pixels);
+                    requests.clear();
+                    requests.extend(
+                        (first..last).flat_map(|k| (0..count).map(move |s| (k, s))).map(|(k, s)| request(k, s)),
+                    );
+                    wavefront.run(requests, out);
+                    let mut i = 0;
+                    for k in first..last {
+                        for s in 0..count {
+                            let (pos, cs) = &out[i];
+                            take(k, s, *pos, cs);
+                            i += 1;
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// Render a path-traced frame of the world seen by `camera` into `film` (resized): passes of
 /// `path.spp` samples per pixel, repeated while the time budget lasts, averaged.
 ///
@@ -300,38 +393,40 @@ fn trace_guides(
     let filtered = path.filtered();
     let mut guides = vec![GuidePixel::default(); acc.len()];
     let parts: Vec<_> = guides.chunks_mut(band_len).zip(acc.chunks_mut(band_len)).collect();
+    let count = if filtered { 1 } else { path.spp as u64 };
     let totals = bands::run(parts, frame.schedule, hooks, |band, (gs, accs)| {
-        let mut it = Integrator::new(world, &frame.lights, frame.params);
+        let mut tracer = Tracer::new(world, frame, path.kernel);
         let mut rejected = 0;
-        for (k, (g, a)) in gs.iter_mut().zip(accs.iter_mut()).enumerate() {
-            let (x, y) = (k % w, band * BAND_ROWS + k / w);
-            let count = if filtered { 1 } else { path.spp as u64 };
-            for s in 0..count {
-                let index = base + s;
-                // The guide ray of the first pass goes through the pixel centre (the guide and
-                // the AOVs); every other sample, later passes' guide rays included, is jittered,
-                // so a pixel centre on a crack does not stay dark for the whole budget.
-                let centre = index == 0;
-                let (_, cs) = frame.sample(&mut it, x, y, index, centre, IndirectMode::Trace);
-                if !cs.is_finite() {
-                    rejected += 1;
-                    a.samples += !filtered as u32;
-                    continue;
-                }
-                if s == 0 {
-                    g.sample = cs;
-                }
-                if !filtered {
-                    a.colour += cs.rest + cs.albedo * cs.indirect;
-                    a.direct += cs.direct;
-                    a.indirect += cs.indirect;
-                    a.covered += cs.covered as u32;
-                    a.samples += 1;
-                }
+        // The guide ray of the first pass goes through the pixel centre (the guide and the
+        // AOVs); every other sample, later passes' guide rays included, is jittered, so a pixel
+        // centre on a crack does not stay dark for the whole budget.
+        let request = |k: usize, s: u64| Request {
+            x: k % w,
+            y: band * BAND_ROWS + k / w,
+            index: base + s,
+            centre: base + s == 0,
+            mode: IndirectMode::Trace,
+        };
+        tracer.samples(gs.len(), count, request, |k, s, _, cs| {
+            let (g, a) = (&mut gs[k], &mut accs[k]);
+            if !cs.is_finite() {
+                rejected += 1;
+                a.samples += !filtered as u32;
+                return;
             }
-        }
+            if s == 0 {
+                g.sample = *cs;
+            }
+            if !filtered {
+                a.colour += cs.rest + cs.albedo * cs.indirect;
+                a.direct += cs.direct;
+                a.indirect += cs.indirect;
+                a.covered += cs.covered as u32;
+                a.samples += 1;
+            }
+        });
         hooks.report((gs.len() / w) as u64);
-        BandStats { rays: it.counts, rejected }
+        BandStats { rays: tracer.counts(), rejected }
     })?;
     stats.rays.add(&totals.rays);
     stats.rejected_samples += totals.rejected;
@@ -381,35 +476,43 @@ fn trace_lookups(
     let map = GuideMap { width: w, height: h, normal: &normals, depth: &depths };
     let parts: Vec<_> = acc.chunks_mut(w * BAND_ROWS).collect();
     let totals = bands::run(parts, frame.schedule, hooks, |band, accs| {
-        let mut it = Integrator::new(world, &frame.lights, frame.params);
+        let mut tracer = Tracer::new(world, frame, path.kernel);
         let mut rejected = 0;
+        let y0 = band * BAND_ROWS;
         for (k, a) in accs.iter_mut().enumerate() {
-            let (x, y) = (k % w, band * BAND_ROWS + k / w);
-            let i = y * w + x;
+            let i = y0 * w + k;
             let g = &guides[i].sample;
             a.colour += g.rest + g.albedo * filtered_indirect[i];
             a.direct += g.direct;
             a.indirect += filtered_indirect[i];
             a.covered += g.covered as u32;
             a.samples += 1;
-            for s in 1..path.spp as u64 {
-                let (pos, cs) = frame.sample(&mut it, x, y, base + s, false, IndirectMode::Lookup);
-                a.samples += 1;
-                if !cs.is_finite() {
-                    rejected += 1;
-                    continue;
-                }
-                let indirect = match cs.guide {
-                    Some(q) => map.choose(pos, q.normal, q.depth).map_or(Rgb::ZERO, |j| filtered_indirect[j]),
-                    None => Rgb::ZERO,
-                };
-                a.colour += cs.rest + cs.albedo * indirect;
-                a.direct += cs.direct;
-                a.covered += cs.covered as u32;
-            }
         }
+        let further = path.spp as u64 - 1;
+        let request = |k: usize, s: u64| Request {
+            x: k % w,
+            y: y0 + k / w,
+            index: base + 1 + s,
+            centre: false,
+            mode: IndirectMode::Lookup,
+        };
+        tracer.samples(accs.len(), further, request, |k, _, pos, cs| {
+            let a = &mut accs[k];
+            a.samples += 1;
+            if !cs.is_finite() {
+                rejected += 1;
+                return;
+            }
+            let indirect = match cs.guide {
+                Some(q) => map.choose(pos, q.normal, q.depth).map_or(Rgb::ZERO, |j| filtered_indirect[j]),
+                None => Rgb::ZERO,
+            };
+            a.colour += cs.rest + cs.albedo * indirect;
+            a.direct += cs.direct;
+            a.covered += cs.covered as u32;
+        });
         hooks.report((accs.len() / w) as u64);
-        BandStats { rays: it.counts, rejected }
+        BandStats { rays: tracer.counts(), rejected }
     })?;
     stats.rays.add(&totals.rays);
     stats.rejected_samples += totals.rejected;

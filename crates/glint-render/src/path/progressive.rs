@@ -17,11 +17,12 @@
 //!
 //! A viewer calls this every frame, so nothing is allocated per frame once the size is set: the
 //! first pass after a reset clears each pixel's sums as it traces it, and the filter's planes
-//! are kept between frames. The camera rays of eight neighbouring pixels are one packet query
-//! ([`World::intersect8`]: the same hits as one ray at a time).
+//! are kept between frames. Samples are traced by the settings' [`super::PathKernel`] (the
+//! wavefront tracer by default).
 
-use super::integrator::{GuideGeometry, IndirectMode, Integrator};
-use super::{BAND_ROWS, FilterBuffers, Frame, PathSettings, depth_scale, filter_indirect};
+use super::integrator::{GuideGeometry, IndirectMode};
+use super::wavefront::Request;
+use super::{BAND_ROWS, FilterBuffers, Frame, PathSettings, Tracer, depth_scale, filter_indirect};
 use crate::bands::{self, Hooks};
 use crate::film::{Film, FilmPixel};
 use crate::settings::ImageSettings;
@@ -128,51 +129,42 @@ impl PathAccumulator {
             .zip(self.centre_albedo.chunks_mut(band_len))
             .collect();
         let band_stats = bands::run(parts, image.schedule, hooks, |band, ((sums, guides), albedos)| {
-            let mut it = Integrator::new(world, &frame.lights, frame.params);
+            let mut tracer = Tracer::new(world, &frame, path.kernel);
             let mut rejected = 0;
-            let mut hits = [None; 8];
-            // Eight neighbouring pixels at a time: their camera rays are one packet query
-            // (the same hits as one by one; each pixel's samples keep their order).
-            for (g, group) in sums.chunks_mut(8).enumerate() {
-                let k0 = g * 8;
-                if first {
-                    group.fill(Sums::default());
-                    guides[k0..k0 + group.len()].fill(None);
-                    albedos[k0..k0 + group.len()].fill(Rgb::ZERO);
-                }
-                for s in 0..path.spp as u64 {
-                    let index = base + s;
-                    let mut cams: [_; 8] = std::array::from_fn(|j| {
-                        let k = k0 + j.min(group.len() - 1);
-                        frame.camera_ray(k % w, band * BAND_ROWS + k / w, index, index == 0)
-                    });
-                    world.intersect8(&cams.each_ref().map(|c| c.1), &mut hits);
-                    for (j, a) in group.iter_mut().enumerate() {
-                        let (_, ray, stream) = &mut cams[j];
-                        let cs = frame.sample_from(&mut it, *ray, hits[j], stream, IndirectMode::Trace);
-                        a.samples += 1;
-                        if !cs.is_finite() {
-                            rejected += 1;
-                            continue;
-                        }
-                        if first && s == 0 {
-                            guides[k0 + j] = cs.guide;
-                            albedos[k0 + j] = cs.albedo;
-                        }
-                        a.colour += cs.rest + cs.albedo * cs.indirect;
-                        a.rest += cs.rest;
-                        a.albedo += cs.albedo;
-                        a.direct += cs.direct;
-                        if cs.guide.is_some() {
-                            a.indirect += cs.indirect;
-                            a.guided += 1;
-                        }
-                        a.covered += cs.covered as u32;
-                    }
-                }
+            if first {
+                // The first pass clears every pixel it traces (in parallel, while its sums are
+                // in cache).
+                sums.fill(Sums::default());
+                guides.fill(None);
+                albedos.fill(Rgb::ZERO);
             }
+            let request = |k: usize, s: u64| {
+                let index = base + s;
+                Request { x: k % w, y: band * BAND_ROWS + k / w, index, centre: index == 0, mode: IndirectMode::Trace }
+            };
+            tracer.samples(sums.len(), path.spp as u64, request, |k, s, _, cs| {
+                let a = &mut sums[k];
+                a.samples += 1;
+                if !cs.is_finite() {
+                    rejected += 1;
+                    return;
+                }
+                if first && s == 0 {
+                    guides[k] = cs.guide;
+                    albedos[k] = cs.albedo;
+                }
+                a.colour += cs.rest + cs.albedo * cs.indirect;
+                a.rest += cs.rest;
+                a.albedo += cs.albedo;
+                a.direct += cs.direct;
+                if cs.guide.is_some() {
+                    a.indirect += cs.indirect;
+                    a.guided += 1;
+                }
+                a.covered += cs.covered as u32;
+            });
             hooks.report((sums.len() / w) as u64);
-            BandStats { rays: it.counts, rejected }
+            BandStats { rays: tracer.counts(), rejected }
         });
         let band_stats = match band_stats {
             Ok(totals) => totals,

@@ -1,0 +1,487 @@
+//! Wavefront path tracing: the camera samples of a band traced breadth first, one bounce of
+//! every live path at a time (Laine, Karras and Aila, "Megakernels Considered Harmful:
+//! Wavefront Path Tracing on GPUs", HPG 2013, as CPU renderers such as Mitsuba 3's LLVM
+//! variants and Embree's stream mode run it).
+//!
+//! Each round:
+//! 1. **trace**: the live paths, binned by direction octant (a counting sort: a packet of one
+//!    octant walks the tree with one near/far plane choice), eight rays per packet query;
+//! 2. **shade**: every hit at once — emission with its MIS weight, the BSDF, the light samples
+//!    of next-event estimation (queued as shadow rays with what each adds when unblocked), the
+//!    next direction, Russian roulette; survivors are compacted into the next round's paths;
+//! 3. **shadows**: the round's shadow rays binned by octant and asked as any-hit packets;
+//! 4. the paths that ended this round hand their radiance to their camera sample.
+//!
+//! The estimator is the recursive integrator's ([`super::integrator`]), vertex for vertex: the
+//! camera chain to the guide vertex, the direct/indirect split there, plain path tracing with
+//! MIS behind it. What changes is only the order of the work, and therefore which random
+//! numbers a sub-path reads: a camera sample's stream is read by its camera chain, its guide
+//! vertex and then its indirect path, as the recursive tracer reads it; the delta lobes a
+//! guide vertex also follows (its mirror and its glass) run beside the indirect path and read
+//! their own dimensions of the same stream (from [`LOBE_DIMENSIONS`] on). So on surfaces
+//! without delta lobes both tracers draw the same numbers and agree up to the order of float
+//! additions; elsewhere they agree in distribution (tests/path.rs compares them per pixel).
+//! Every number is still `hash(pixel, sample, dimension, seed)`: no thread count or schedule
+//! changes a bit.
+
+use super::Frame;
+use super::bsdf::Bsdf;
+use super::integrator::{Arrival, CameraSample, GuideGeometry, IndirectMode, bsdf_at, clamp_radiance, light_samples};
+use crate::stats::RayCounts;
+use crate::world::{SurfaceHit, World};
+use glint_core::random::SampleStream;
+use glint_core::{Ray, Rgb, Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
+
+/// The stream dimensions of delta lobe `k` of a guide vertex start at `(k + 1) ·` this, far
+/// beyond what any path reads (a few dimensions per bounce, bounces capped by
+/// `glint_scene::limits`).
+pub(super) const LOBE_DIMENSIONS: u64 = 1 << 32;
+
+/// No tail: a shadow ray whose light goes straight to its camera sample.
+const NO_TAIL: u32 = u32::MAX;
+
+/// One camera sample to trace: pixel, sample index, whether it goes through the pixel centre,
+/// and how its guide vertex treats the diffuse indirect light.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Request {
+    pub x: usize,
+    pub y: usize,
+    pub index: u64,
+    pub centre: bool,
+    pub mode: IndirectMode,
+}
+
+/// A camera path on its way to its guide vertex (through mirrors and glass).
+#[derive(Clone, Copy)]
+struct CameraLeg {
+    chain: u32,
+    throughput: Rgb,
+    /// Camera depth of the first hit plus the lengths of the chain after it.
+    depth: f32,
+    /// The primary ray's footprint, for sky filtering.
+    cone: f32,
+    mode: IndirectMode,
+}
+
+/// A path behind a guide vertex: the recursive tracer's `trace_path` loop state.
+#[derive(Clone, Copy)]
+struct TailLeg {
+    tail: u32,
+    beta: Rgb,
+    /// Vertex number (after the guide vertex) of the ray's next hit.
+    bounce: u32,
+    arrival: Arrival,
+}
+
+#[derive(Clone, Copy)]
+enum Leg {
+    Camera(CameraLeg),
+    Tail(TailLeg),
+}
+
+/// A live path: its camera sample, the ray it traces next, its random stream.
+#[derive(Clone, Copy)]
+struct Path {
+    slot: u32,
+    ray: Ray,
+    stream: SampleStream,
+    leg: Leg,
+}
+
+/// The radiance a path behind a guide vertex gathers, and how it reaches its camera sample
+/// when the path ends: `rest += to_rest · L`, `indirect += to_indirect · L`, with `L`
+/// clamped first where `clamp` says (the recursive tracer's firefly clamp).
+#[derive(Clone, Copy)]
+struct Tail {
+    slot: u32,
+    li: Rgb,
+    clamp: bool,
+    to_rest: Rgb,
+    to_indirect: f32,
+}
+
+/// A queued shadow ray and what it adds when nothing blocks it: to its camera sample's rest,
+/// direct and indirect parts, or (with a tail) to that tail's radiance (`rest`).
+#[derive(Clone, Copy)]
+struct Shadow {
+    ray: Ray,
+    slot: u32,
+    tail: u32,
+    rest: Rgb,
+    direct: Rgb,
+    indirect: Rgb,
+}
+
+/// Where the light samples of a vertex go.
+#[derive(Clone, Copy)]
+enum Dest {
+    /// A guide vertex: its camera sample's direct light (`throughput`, and `albedo` to take
+    /// the filtered part out when area light is filtered; `trace`: that part goes to the
+    /// traced indirect buffer).
+    Guide { slot: u32, throughput: Rgb, albedo: Rgb, trace: bool },
+    /// A vertex behind it: its tail's radiance, times `beta`.
+    Tail { tail: u32, beta: Rgb },
+}
+
+/// The wavefront tracer of one worker: its queues are kept between the bands it traces.
+pub(super) struct Wavefront<'a> {
+    world: &'a World,
+    frame: &'a Frame,
+    pub counts: RayCounts,
+    paths: Vec<Path>,
+    next: Vec<Path>,
+    hits: Vec<Option<SurfaceHit>>,
+    tails: Vec<Tail>,
+    ended: Vec<u32>,
+    shadows: Vec<Shadow>,
+    order: Vec<u32>,
+}
+
+impl<'a> Wavefront<'a> {
+    pub(super) fn new(world: &'a World, frame: &'a Frame) -> Self {
+        Self {
+            world,
+            frame,
+            counts: RayCounts::default(),
+            paths: Vec::new(),
+            next: Vec::new(),
+            hits: Vec::new(),
+            tails: Vec::new(),
+            ended: Vec::new(),
+            shadows: Vec::new(),
+            order: Vec::new(),
+        }
+    }
+
+    /// Trace the camera samples `requests`; `out[i]` is request `i`'s image position and
+    /// sample.
+    pub(super) fn run(&mut self, requests: &[Request], out: &mut Vec<(Vec2, CameraSample)>) {
+        out.clear();
+        self.paths.clear();
+        self.tails.clear();
+        for (slot, r) in requests.iter().enumerate() {
+            let (pos, ray, stream) = self.frame.camera_ray(r.x, r.y, r.index, r.centre);
+            let cos = ray.dir.dot(self.frame.forward);
+            let cone = self.frame.centre_cone * cos * cos.sqrt();
+            out.push((pos, CameraSample::default()));
+            let leg = CameraLeg { chain: 0, throughput: Rgb::ONE, depth: 0.0, cone, mode: r.mode };
+            self.paths.push(Path { slot: slot as u32, ray, stream, leg: Leg::Camera(leg) });
+        }
+        // Camera rays come in pixel order, already coherent: traced as they are.
+        let mut binned = true;
+        while !self.paths.is_empty() {
+            if !binned {
+                bin_paths(&self.paths, &mut self.next);
+                std::mem::swap(&mut self.paths, &mut self.next);
+            }
+            binned = false;
+            self.trace();
+            self.next.clear();
+            self.shadows.clear();
+            self.ended.clear();
+            for i in 0..self.paths.len() {
+                let (path, hit) = (self.paths[i], self.hits[i]);
+                match path.leg {
+                    Leg::Camera(leg) => self.shade_camera(path, leg, hit, out),
+                    Leg::Tail(leg) => self.shade_tail(path, leg, hit),
+                }
+            }
+            self.trace_shadows(out);
+            for &t in &self.ended {
+                let tail = &self.tails[t as usize];
+                let li = if tail.clamp { clamp_radiance(tail.li, self.frame.params.clamp_indirect) } else { tail.li };
+                let s = &mut out[tail.slot as usize].1;
+                s.rest += tail.to_rest * li;
+                s.indirect += li * tail.to_indirect;
+            }
+            std::mem::swap(&mut self.paths, &mut self.next);
+        }
+    }
+
+    /// Closest hits of every live path, eight rays per packet query.
+    fn trace(&mut self) {
+        let n = self.paths.len();
+        self.hits.clear();
+        self.hits.resize(n, None);
+        let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); 8];
+        let mut found = [None; 8];
+        for start in (0..n).step_by(8) {
+            let len = (n - start).min(8);
+            for (j, r) in rays.iter_mut().enumerate() {
+                // A short last packet repeats its last ray (the same answer, ignored).
+                *r = self.paths[start + j.min(len - 1)].ray;
+            }
+            self.world.intersect8(&rays, &mut found);
+            self.hits[start..start + len].copy_from_slice(&found[..len]);
+        }
+    }
+
+    /// One vertex of a camera chain: the recursive tracer's `camera_sample_from` loop body.
+    fn shade_camera(
+        &mut self,
+        path: Path,
+        mut leg: CameraLeg,
+        hit: Option<SurfaceHit>,
+        out: &mut [(Vec2, CameraSample)],
+    ) {
+        let slot = path.slot;
+        if leg.chain == 0 {
+            self.counts.primary += 1;
+        } else {
+            self.counts.secondary += 1;
+        }
+        let sample = &mut out[slot as usize].1;
+        let Some(hit) = hit else {
+            let sky = if leg.chain == 0 {
+                self.world.sky().radiance_filtered(path.ray.dir, leg.cone)
+            } else {
+                self.world.sky().radiance(path.ray.dir)
+            };
+            sample.rest += leg.throughput * sky;
+            return;
+        };
+        sample.covered = true;
+        leg.depth = if leg.chain == 0 { self.frame.camera.depth(hit.position) } else { leg.depth + hit.t };
+        let (bsdf, emission) = bsdf_at(self.world, &hit, path.ray.dir);
+        sample.rest += leg.throughput * emission;
+        let mut stream = path.stream;
+        let u_lobe = stream.next_1d();
+        let u = stream.next_2d();
+        let with_delta = if bsdf.is_delta_dominant() {
+            if u_lobe >= bsdf.p_non_delta() {
+                // Through the mirror or the glass, while the chain may grow.
+                let Some(s) = bsdf.sample(u_lobe, u) else { return };
+                leg.throughput *= s.weight;
+                if leg.chain < self.frame.params.max_chain {
+                    leg.chain += 1;
+                    let ray = hit.spawn_ray(s.wi);
+                    self.next.push(Path { slot, ray, stream, leg: Leg::Camera(leg) });
+                }
+                return;
+            }
+            // The non-delta part was chosen: the guide vertex, its delta lobes accounted.
+            leg.throughput /= bsdf.p_non_delta();
+            false
+        } else {
+            true
+        };
+        self.guide_vertex(slot, &hit, &bsdf, &leg, with_delta, stream, out);
+        out[slot as usize].1.guide = Some(GuideGeometry { normal: bsdf.normal, depth: leg.depth });
+    }
+
+    /// The guide vertex: its direct light (queued), its indirect path and, when it follows
+    /// them, its delta lobes (new tails).
+    #[allow(clippy::too_many_arguments)]
+    fn guide_vertex(
+        &mut self,
+        slot: u32,
+        hit: &SurfaceHit,
+        bsdf: &Bsdf,
+        leg: &CameraLeg,
+        with_delta: bool,
+        mut stream: SampleStream,
+        out: &mut [(Vec2, CameraSample)],
+    ) {
+        let albedo = leg.throughput * bsdf.diffuse;
+        out[slot as usize].1.albedo = albedo;
+        let throughput = leg.throughput;
+        let base = stream;
+        if bsdf.has_non_delta() {
+            let trace = leg.mode == IndirectMode::Trace;
+            self.light_samples(hit, bsdf, &mut stream, false, Dest::Guide { slot, throughput, albedo, trace });
+            if self.frame.params.max_bounces > 0 {
+                let u_lobe = stream.next_1d();
+                let u = stream.next_2d();
+                match leg.mode {
+                    IndirectMode::Trace => {
+                        if let Some(s) = bsdf.sample_non_delta(u_lobe, u) {
+                            let cos = bsdf.normal.dot(s.wi).max(0.0);
+                            let arrival = Arrival { pdf: s.pdf, delta: false, after_guide: true, from: hit.position };
+                            let tail = Tail {
+                                slot,
+                                li: Rgb::ZERO,
+                                clamp: true,
+                                to_rest: throughput * (bsdf.eval_glossy_cos(s.wi) / s.pdf),
+                                to_indirect: cos * FRAC_1_PI / s.pdf,
+                            };
+                            self.start_tail(tail, hit.spawn_ray(s.wi), stream, 1, arrival);
+                        }
+                    }
+                    IndirectMode::Lookup => {
+                        if let Some((wi, w)) = bsdf.sample_glossy_only(u) {
+                            let arrival =
+                                Arrival { pdf: bsdf.pdf(wi), delta: false, after_guide: true, from: hit.position };
+                            let tail =
+                                Tail { slot, li: Rgb::ZERO, clamp: true, to_rest: throughput * w, to_indirect: 0.0 };
+                            self.start_tail(tail, hit.spawn_ray(wi), stream, 1, arrival);
+                        }
+                    }
+                }
+            }
+        }
+        if with_delta {
+            for (k, lobe) in bsdf.delta_lobes().into_iter().enumerate() {
+                let Some((dir, weight)) = lobe else { continue };
+                let arrival = Arrival { pdf: 0.0, delta: true, after_guide: false, from: hit.position };
+                let tail = Tail { slot, li: Rgb::ZERO, clamp: false, to_rest: throughput * weight, to_indirect: 0.0 };
+                let lobe_stream = base.at_dimension(LOBE_DIMENSIONS * (k as u64 + 1));
+                self.start_tail(tail, hit.spawn_ray(dir), lobe_stream, 0, arrival);
+            }
+        }
+    }
+
+    fn start_tail(&mut self, tail: Tail, ray: Ray, stream: SampleStream, bounce: u32, arrival: Arrival) {
+        let id = self.tails.len() as u32;
+        self.tails.push(tail);
+        let leg = TailLeg { tail: id, beta: Rgb::ONE, bounce, arrival };
+        self.next.push(Path { slot: tail.slot, ray, stream, leg: Leg::Tail(leg) });
+    }
+
+    /// One vertex behind a guide vertex: the recursive tracer's `trace_path` loop body.
+    fn shade_tail(&mut self, path: Path, mut leg: TailLeg, hit: Option<SurfaceHit>) {
+        self.counts.secondary += 1;
+        let frame = self.frame;
+        let (params, lights) = (frame.params, &frame.lights);
+        let Some(hit) = hit else {
+            let weight = leg.arrival.emission_weight(lights.pdf_sky(self.world, path.ray.dir));
+            if weight > 0.0 {
+                self.tails[leg.tail as usize].li += leg.beta * self.world.sky().radiance(path.ray.dir) * weight;
+            }
+            self.ended.push(leg.tail);
+            return;
+        };
+        let (bsdf, emission) = bsdf_at(self.world, &hit, path.ray.dir);
+        if emission.max_element() > 0.0 {
+            let weight = leg.arrival.emission_weight(lights.pdf_surface(leg.arrival.from, path.ray.dir, &hit));
+            self.tails[leg.tail as usize].li += leg.beta * emission * weight;
+        }
+        let mut stream = path.stream;
+        if bsdf.has_non_delta() {
+            // MIS against BSDF sampling, except at the last vertex (its BSDF ray is not traced).
+            let mis = leg.bounce < params.max_bounces;
+            self.light_samples(&hit, &bsdf, &mut stream, mis, Dest::Tail { tail: leg.tail, beta: leg.beta });
+        }
+        if leg.bounce >= params.max_bounces {
+            self.ended.push(leg.tail);
+            return;
+        }
+        let u_lobe = stream.next_1d();
+        let u = stream.next_2d();
+        let Some(s) = bsdf.sample(u_lobe, u) else {
+            self.ended.push(leg.tail);
+            return;
+        };
+        leg.beta *= s.weight;
+        leg.bounce += 1;
+        if leg.bounce > params.rr_start {
+            let q = leg.beta.max_element().min(0.95);
+            if stream.next_1d() >= q || q.is_nan() {
+                self.ended.push(leg.tail);
+                return;
+            }
+            leg.beta /= q;
+        }
+        leg.arrival = Arrival { pdf: s.pdf, delta: s.delta, after_guide: false, from: hit.position };
+        self.next.push(Path { slot: path.slot, ray: hit.spawn_ray(s.wi), stream, leg: Leg::Tail(leg) });
+    }
+
+    /// Next-event estimation at a vertex: its shadow rays queued with what each adds.
+    fn light_samples(&mut self, hit: &SurfaceHit, bsdf: &Bsdf, stream: &mut SampleStream, mis: bool, dest: Dest) {
+        let frame = self.frame;
+        let filter_direct = frame.params.filter_area_direct;
+        let shadows = &mut self.shadows;
+        light_samples(&frame.lights, self.world, hit, bsdf, stream, mis, &mut self.counts, |ray, c, diffuse| {
+            shadows.push(match dest {
+                Dest::Guide { slot, throughput, albedo, trace } => {
+                    // The filtered part of the direct light leaves the unfiltered sum.
+                    let filtered = if filter_direct { diffuse } else { Rgb::ZERO };
+                    let direct = throughput * c - albedo * filtered;
+                    let indirect = if trace { filtered } else { Rgb::ZERO };
+                    Shadow { ray: *ray, slot, tail: NO_TAIL, rest: direct, direct, indirect }
+                }
+                Dest::Tail { tail, beta } => {
+                    Shadow { ray: *ray, slot: 0, tail, rest: beta * c, direct: Rgb::ZERO, indirect: Rgb::ZERO }
+                }
+            });
+        });
+    }
+
+    /// The round's shadow rays, binned by octant, as any-hit packets; the unblocked ones add
+    /// their light.
+    fn trace_shadows(&mut self, out: &mut [(Vec2, CameraSample)]) {
+        let n = self.shadows.len();
+        if n == 0 {
+            return;
+        }
+        octant_order(self.shadows.iter().map(|s| s.ray.dir), &mut self.order);
+        let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); 8];
+        let mut blocked = [false; 8];
+        for start in (0..n).step_by(8) {
+            let len = (n - start).min(8);
+            for (j, r) in rays.iter_mut().enumerate() {
+                *r = self.shadows[self.order[start + j.min(len - 1)] as usize].ray;
+            }
+            self.world.occluded8(&rays, &mut blocked);
+            for (j, &b) in blocked[..len].iter().enumerate() {
+                if b {
+                    continue;
+                }
+                let s = &self.shadows[self.order[start + j] as usize];
+                if s.tail == NO_TAIL {
+                    let sample = &mut out[s.slot as usize].1;
+                    sample.rest += s.rest;
+                    sample.direct += s.direct;
+                    sample.indirect += s.indirect;
+                } else {
+                    self.tails[s.tail as usize].li += s.rest;
+                }
+            }
+        }
+    }
+}
+
+/// Direction octant: bit `a` set where axis `a` of `d` has its sign bit set.
+#[inline]
+fn octant(d: Vec3) -> usize {
+    d.x.is_sign_negative() as usize | (d.y.is_sign_negative() as usize) << 1 | (d.z.is_sign_negative() as usize) << 2
+}
+
+/// `out` = `paths` stably binned by their rays' direction octants (a counting sort).
+fn bin_paths(paths: &[Path], out: &mut Vec<Path>) {
+    let mut start = [0usize; 9];
+    for p in paths {
+        start[octant(p.ray.dir) + 1] += 1;
+    }
+    for o in 1..9 {
+        start[o] += start[o - 1];
+    }
+    out.clear();
+    let Some(&first) = paths.first() else { return };
+    out.resize(paths.len(), first);
+    for p in paths {
+        let o = octant(p.ray.dir);
+        out[start[o]] = *p;
+        start[o] += 1;
+    }
+}
+
+/// `order` = the indices of `dirs` stably binned by direction octant.
+fn octant_order(dirs: impl Iterator<Item = Vec3> + Clone, order: &mut Vec<u32>) {
+    let mut start = [0usize; 9];
+    let mut n = 0;
+    for d in dirs.clone() {
+        start[octant(d) + 1] += 1;
+        n += 1;
+    }
+    for o in 1..9 {
+        start[o] += start[o - 1];
+    }
+    order.clear();
+    order.resize(n, 0);
+    for (i, d) in dirs.enumerate() {
+        let o = octant(d);
+        order[start[o]] = i as u32;
+        start[o] += 1;
+    }
+}
