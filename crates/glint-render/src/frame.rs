@@ -307,7 +307,7 @@ impl Renderer {
                 let mut stats = render_path(world, camera, image, settings, hooks, &mut self.film)?;
                 let trace = stats.stage("trace").unwrap_or_default();
                 stats.summary = format!(
-                    "path {}x{} at {} spp ({} pass{}, {} bounces, filter {}) in {:.3} s (trace {:.3} s at {:.1} Mrays/s, filter {:.1} ms, {}), {} NaN/inf samples dropped",
+                    "path {}x{} at {} spp ({} pass{}, {} bounces, filter {}) in {:.3} s ({:.2} M paths/s; trace {:.3} s at {:.1} Mrays/s, filter {:.1} ms, {}), {} NaN/inf samples dropped",
                     image.width,
                     image.height,
                     stats.samples_per_pixel,
@@ -316,6 +316,7 @@ impl Renderer {
                     settings.max_bounces,
                     settings.filter,
                     stats.elapsed.as_secs_f64(),
+                    stats.mpaths_per_second(),
                     trace.as_secs_f64(),
                     stats.mrays_per_second(),
                     stats.stage("filter").unwrap_or_default().as_secs_f64() * 1e3,

@@ -52,6 +52,8 @@ pub struct FrameStats {
     pub rays: RayCounts,
     /// Points drawn (points mode).
     pub points: u64,
+    /// Camera samples traced to the end of their paths (path mode).
+    pub paths: u64,
     /// Samples whose result was NaN or infinite: dropped, counted as black.
     pub rejected_samples: u64,
     /// Passes in the picture (progressive frames; 1 for a whole frame of one pass).
@@ -74,6 +76,12 @@ impl FrameStats {
     pub fn mrays_per_second(&self) -> f64 {
         let t = self.stage("trace").unwrap_or(self.elapsed);
         self.rays.total() as f64 / t.as_secs_f64().max(1e-9) / 1e6
+    }
+
+    /// Paths per second over the whole frame (filter included), in millions.
+    #[must_use]
+    pub fn mpaths_per_second(&self) -> f64 {
+        self.paths as f64 / self.elapsed.as_secs_f64().max(1e-9) / 1e6
     }
 
     /// Points per second over the frame without its traced part (the meshes a points frame

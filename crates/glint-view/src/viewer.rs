@@ -479,8 +479,10 @@ impl Viewer {
             RenderMode::Points => "exact".into(),
         };
         let (rate, unit) = rate(&o.stats);
+        let paths =
+            if o.stats.paths > 0 { format!("  {:.2} M paths/s", o.stats.mpaths_per_second()) } else { String::new() };
         lines.push(format!(
-            "{rate:.1} {unit}  |  {accumulated}  |  display {}  |  camera {:?}{}",
+            "{rate:.1} {unit}{paths}  |  {accumulated}  |  display {}  |  camera {:?}{}",
             self.display.name(),
             self.camera.mode,
             if self.adaptive { "" } else { "  |  fixed resolution" }
@@ -649,7 +651,7 @@ mod tests {
         v.frame(&InputState::default(), 0.05).unwrap();
         v.frame(&InputState::default(), 0.05).unwrap();
         let text = v.stats_lines().join("\n");
-        for needle in ["path", "64x40", "fps", "trace", "filter", "Mrays/s", "2 spp", "guided"] {
+        for needle in ["path", "64x40", "fps", "trace", "filter", "Mrays/s", "M paths/s", "2 spp", "guided"] {
             assert!(text.contains(needle), "{needle:?} missing from {text}");
         }
         // The overlay is drawn: white text pixels in the top-left corner.

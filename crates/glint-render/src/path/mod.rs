@@ -366,6 +366,7 @@ pub fn render_path(
     resolve_film(&acc, &aovs, path.filtered(), pass, image, film);
     stats.passes = pass;
     stats.samples_per_pixel = pass * path.spp;
+    stats.paths = image.pixels() as u64 * u64::from(pass * path.spp);
     stats.elapsed = start.elapsed();
     stats.stages = vec![("trace", trace), ("filter", filter)];
     Ok(stats)

@@ -183,6 +183,7 @@ impl PathAccumulator {
             rejected_samples: band_stats.rejected,
             passes: self.passes,
             samples_per_pixel: self.samples_per_pixel(),
+            paths: (w * h) as u64 * u64::from(path.spp),
             ..FrameStats::default()
         })
     }
