@@ -138,6 +138,7 @@ pub fn scene_for_model(model: Model) -> Scene {
         ambient: Rgb::ONE,
         sky_ambient: false,
         materials,
+        bsdfs: Vec::new(),
         textures,
         meshes: meshes.into_iter().map(Arc::new).collect(),
         objects,

@@ -9,6 +9,7 @@
 #![deny(unsafe_code)]
 
 pub mod animation;
+pub mod bsdf;
 pub mod camera;
 pub mod error;
 pub mod light;
@@ -22,6 +23,7 @@ pub mod sky;
 pub mod texture;
 
 pub use animation::{Animation, AnimationBase, AnimationTarget, Keyframes, Motion, Repeat, Rotation};
+pub use bsdf::{BsdfId, BsdfKind, Distribution, Principled, Roughness, Tex};
 pub use camera::{Camera, CameraRays, Fov};
 pub use error::SceneError;
 pub use light::{Attenuation, Light};

@@ -41,6 +41,10 @@ pub struct Material {
     /// ceramic); a metal's own reflectance (gold ≈ (1.0, 0.71, 0.29)). Excludes the constant
     /// `reflectivity` and `transparency` (which has its exact Fresnel weights).
     pub reflection_f0: Option<Rgb>,
+    /// A physically based model ([`crate::bsdf`], index into `Scene::bsdfs`) that shades this
+    /// material in path mode instead of the Phong parameters above (which the Whitted mode
+    /// keeps reading).
+    pub bsdf: Option<crate::BsdfId>,
 }
 
 impl Default for Material {
@@ -60,6 +64,7 @@ impl Default for Material {
             emission: Rgb::ZERO,
             two_sided: false,
             reflection_f0: None,
+            bsdf: None,
         }
     }
 }

@@ -71,6 +71,8 @@ pub struct Scene {
     /// E the sky's irradiance (so a uniform sky of radiance L gives I_a = `ambient` · L).
     pub sky_ambient: bool,
     pub materials: Vec<Material>,
+    /// Physically based models that materials may name ([`crate::bsdf`]).
+    pub bsdfs: Vec<crate::BsdfKind>,
     pub textures: Vec<Texture>,
     pub meshes: Vec<Arc<Mesh>>,
     pub objects: Vec<Object>,
@@ -155,6 +157,7 @@ impl Scene {
                 return Err(SceneError::invalid(format!("texture #{i}"), "checker size must be > 0"));
             }
         }
+        self.validate_bsdfs()?;
         for m in &self.materials {
             self.validate_material(m)?;
         }
@@ -190,6 +193,78 @@ impl Scene {
             ));
         }
         c.cloud.validate()
+    }
+
+    /// Every BSDF's references (BSDFs, textures) in range and acyclic, its numbers in range.
+    fn validate_bsdfs(&self) -> Result<(), SceneError> {
+        use crate::bsdf::{BsdfKind, Tex};
+        let n = self.bsdfs.len();
+        for (i, b) in self.bsdfs.iter().enumerate() {
+            let what = || format!("bsdf #{i}");
+            if let Some(c) = b.children().into_iter().find(|&c| c >= n) {
+                return Err(SceneError::invalid(what(), format!("refers to bsdf #{c}, there are {n}")));
+            }
+            if let Some(t) = b.textures().into_iter().find(|&t| t >= self.textures.len()) {
+                return Err(SceneError::invalid(
+                    what(),
+                    format!("refers to texture #{t}, there are {}", self.textures.len()),
+                ));
+            }
+            let eta_ok = |e: f32| e.is_finite() && e > 0.0;
+            let alpha_ok = |a: &Tex<f32>| !matches!(*a, Tex::Value(v) if !(v.is_finite() && v >= 0.0));
+            let ok = match b {
+                BsdfKind::Conductor { eta, k, .. } | BsdfKind::RoughConductor { eta, k, .. } => {
+                    eta.is_finite() && k.is_finite() && eta.min_element() >= 0.0 && k.min_element() >= 0.0
+                }
+                BsdfKind::Dielectric { eta, .. }
+                | BsdfKind::ThinDielectric { eta, .. }
+                | BsdfKind::RoughDielectric { eta, .. }
+                | BsdfKind::Plastic { eta, .. }
+                | BsdfKind::RoughPlastic { eta, .. } => eta_ok(*eta),
+                BsdfKind::BumpMap { scale, .. } => scale.is_finite(),
+                BsdfKind::Principled(p) => p.eta.is_none_or(eta_ok) && p.specular.is_finite(),
+                _ => true,
+            } && match b {
+                BsdfKind::RoughConductor { roughness, .. }
+                | BsdfKind::RoughDielectric { roughness, .. }
+                | BsdfKind::RoughPlastic { roughness, .. } => {
+                    alpha_ok(&roughness.alpha_u) && alpha_ok(&roughness.alpha_v)
+                }
+                _ => true,
+            };
+            if !ok {
+                return Err(SceneError::invalid(what(), format!("parameters out of range: {b:?}")));
+            }
+        }
+        // Acyclic: a depth-first walk that never meets a BSDF it is still inside (each BSDF
+        // finished once, so shared children cost nothing more).
+        let mut state = vec![0u8; n]; // 0 unseen, 1 on the walk, 2 done
+        for root in 0..n {
+            if state[root] != 0 {
+                continue;
+            }
+            let mut stack = vec![(root, false)];
+            while let Some((j, leaving)) = stack.pop() {
+                if leaving {
+                    state[j] = 2;
+                    continue;
+                }
+                match state[j] {
+                    1 => {
+                        return Err(SceneError::invalid(
+                            format!("bsdf #{j}"),
+                            "nested BSDFs refer to each other in a cycle",
+                        ));
+                    }
+                    2 => continue,
+                    _ => {}
+                }
+                state[j] = 1;
+                stack.push((j, true));
+                stack.extend(self.bsdfs[j].children().into_iter().map(|c| (c, false)));
+            }
+        }
+        Ok(())
     }
 
     fn validate_material(&self, m: &Material) -> Result<(), SceneError> {
@@ -230,6 +305,11 @@ impl Scene {
             || m.emission.min_element() < 0.0
         {
             return Err(SceneError::invalid(what(), "colour and emission must be finite and non-negative"));
+        }
+        if let Some(b) = m.bsdf
+            && b >= self.bsdfs.len()
+        {
+            return Err(SceneError::invalid(what(), format!("refers to bsdf #{b}, there are {}", self.bsdfs.len())));
         }
         if let Some(t) = m.texture
             && t >= self.textures.len()
@@ -459,5 +539,33 @@ mod tests {
         }));
         let err = s.validate().expect_err("index 2 of 2 vertices");
         assert!(err.to_string().contains("triangle 0"), "{err}");
+    }
+
+    #[test]
+    fn bsdf_references_are_checked_and_cycles_refused() {
+        use crate::bsdf::{BsdfKind, Tex};
+        let diffuse = BsdfKind::Diffuse { reflectance: Tex::Value(Rgb::splat(0.5)) };
+        let mut s = one_sphere();
+        // A diamond (both halves of a blend wrap the same model) is fine.
+        s.bsdfs = vec![
+            diffuse.clone(),
+            BsdfKind::Mask { opacity: Tex::Value(Rgb::splat(0.5)), inner: 0 },
+            BsdfKind::Blend { weight: Tex::Value(0.5), a: 1, b: 0 },
+        ];
+        s.materials[0].bsdf = Some(2);
+        assert!(s.validate().is_ok());
+        s.bsdfs[0] = BsdfKind::TwoSided { front: 2, back: 2 };
+        let err = s.validate().unwrap_err().to_string();
+        assert!(err.contains("cycle"), "{err}");
+        s.bsdfs[0] = diffuse;
+        s.materials[0].bsdf = Some(3);
+        assert!(s.validate().is_err());
+        s.materials[0].bsdf = Some(0);
+        s.bsdfs[1] = BsdfKind::Dielectric {
+            eta: -1.0,
+            specular_reflectance: Tex::Value(Rgb::ONE),
+            specular_transmittance: Tex::Texture(9),
+        };
+        assert!(s.validate().is_err());
     }
 }
