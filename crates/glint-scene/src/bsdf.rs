@@ -78,8 +78,9 @@ pub enum BsdfKind {
     /// Different models on the two faces (Mitsuba's `twosided`: one model seen from both
     /// sides when `front == back`).
     TwoSided { front: BsdfId, back: BsdfId },
-    /// Partly transparent: light passes straight through with probability `1 − opacity`.
-    Mask { opacity: Tex<Rgb>, inner: BsdfId },
+    /// Partly transparent: light passes straight through with probability `1 − opacity`
+    /// (Mitsuba's `mask`: a scalar opacity, an RGB texture read as its luminance).
+    Mask { opacity: Tex<f32>, inner: BsdfId },
     /// Shading normals from the gradient of a height texture times `scale`.
     BumpMap { height: usize, scale: f32, inner: BsdfId },
     /// Shading normals from a tangent-space normal map (`2 rgb − 1`).
@@ -152,9 +153,9 @@ impl BsdfKind {
                 rgb(diffuse_reflectance);
                 rgb(specular_reflectance);
             }
-            BsdfKind::Mask { opacity, .. } => rgb(opacity),
             BsdfKind::Principled(p) => rgb(&p.base_color),
             BsdfKind::TwoSided { .. }
+            | BsdfKind::Mask { .. }
             | BsdfKind::BumpMap { .. }
             | BsdfKind::NormalMap { .. }
             | BsdfKind::Blend { .. } => {}
@@ -171,7 +172,7 @@ impl BsdfKind {
                 scalar(&roughness.alpha_u);
                 scalar(&roughness.alpha_v);
             }
-            BsdfKind::Blend { weight, .. } => scalar(weight),
+            BsdfKind::Blend { weight, .. } | BsdfKind::Mask { opacity: weight, .. } => scalar(weight),
             BsdfKind::Principled(p) => {
                 for t in [
                     &p.roughness,

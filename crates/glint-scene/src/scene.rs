@@ -549,7 +549,7 @@ mod tests {
         // A diamond (both halves of a blend wrap the same model) is fine.
         s.bsdfs = vec![
             diffuse.clone(),
-            BsdfKind::Mask { opacity: Tex::Value(Rgb::splat(0.5)), inner: 0 },
+            BsdfKind::Mask { opacity: Tex::Value(0.5), inner: 0 },
             BsdfKind::Blend { weight: Tex::Value(0.5), a: 1, b: 0 },
         ];
         s.materials[0].bsdf = Some(2);
