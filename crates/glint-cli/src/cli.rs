@@ -738,6 +738,20 @@ pub struct CompareArgs {
     /// Print one JSON object instead of the table.
     #[arg(long)]
     pub json: bool,
+    /// Run Mitsuba 3's render test against the reference, whose per-sample variance is in
+    /// VAR.exr (R, G, B): a per-pixel z-test in XYZ, Šidák-corrected significance 0.01,
+    /// passing where at least 99.75 % of the pixel-channels accept (docs/compare.md). When A
+    /// has glint's Variance.R/G/B layer its own variance is used; otherwise the reference's
+    /// stands for both (Mitsuba's form). Exit status 1 when the test fails.
+    #[arg(long, value_name = "VAR.exr")]
+    pub ztest: Option<PathBuf>,
+    /// A's samples per pixel for --ztest (default: the mean of its SampleCount channel).
+    #[arg(long, value_name = "N", requires = "ztest")]
+    pub spp: Option<f64>,
+    /// The reference's samples per pixel for --ztest: its own noise joins the test's
+    /// variance (Mitsuba's references: 32000). Default: ignored.
+    #[arg(long = "reference-spp", value_name = "M", requires = "ztest")]
+    pub reference_spp: Option<f64>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, ValueEnum)]

@@ -290,3 +290,49 @@ fn bad_input_fails_cleanly_without_touching_the_diff() {
         ["a.png", "b.png", "cut.png", "depth.exr", "garbage.png", "inf.exr", "nan.exr", "out.png", "small.png"]
     );
 }
+
+/// `--ztest VAR.exr`, as docs/compare.md shows it: an image within its own noise of the
+/// reference passes (exit 0, PASS, the image's own variance and SampleCount used), a biased
+/// one fails with exit status 1 after printing the numbers; without a variance layer the
+/// reference's variance stands for both and `--spp` is required.
+#[test]
+fn ztest_passes_within_the_noise_and_fails_a_biased_image() {
+    let d = scratch("compare-ztest");
+    let (w, h) = (24u32, 16u32);
+    let reference = picture(w, h);
+    let mut var = Image::new(w, h);
+    for name in ["R", "G", "B"] {
+        var.add_channel(name, vec![0.04; (w * h) as usize]).unwrap();
+    }
+    glint_image::write_exr(&d.join("ref.exr"), &reference).unwrap();
+    glint_image::write_exr(&d.join("ref_var.exr"), &var).unwrap();
+    // A glint-like EXR: beauty, Variance.R/G/B and SampleCount (100 samples: σ of the mean 0.02).
+    let with_layers = |beauty: &Image, name: &str| {
+        let mut img = beauty.clone();
+        for c in ["Variance.R", "Variance.G", "Variance.B"] {
+            img.add_channel(c, vec![0.04; (w * h) as usize]).unwrap();
+        }
+        img.add_channel("SampleCount", vec![100.0; (w * h) as usize]).unwrap();
+        glint_image::write_exr(&d.join(name), &img).unwrap();
+    };
+    with_layers(&offset(&reference, 0.01), "close.exr");
+    with_layers(&offset(&reference, 0.2), "far.exr");
+    let out = ok(&["compare", "close.exr", "ref.exr", "--ztest", "ref_var.exr"], &d);
+    let z = row(&out, "z-test (Mitsuba's render test)");
+    assert!(z.starts_with("PASS: 1152/1152") && z.contains("the image's own"), "{z}");
+    let o = glint(&["compare", "far.exr", "ref.exr", "--ztest", "ref_var.exr", "--json"], &d);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["ztest"]["passed"], Value::Bool(false));
+    assert_eq!(v["ztest"]["accepted"], 0);
+    assert!(stderr(&o).contains("z-test failed"), "{}", stderr(&o));
+    // A plain image: Mitsuba's form needs --spp.
+    glint_image::write_exr(&d.join("plain.exr"), &offset(&reference, 0.01)).unwrap();
+    let o = glint(&["compare", "plain.exr", "ref.exr", "--ztest", "ref_var.exr"], &d);
+    assert!(!o.status.success() && stderr(&o).contains("--spp"), "{}", stderr(&o));
+    let v = json(&["compare", "plain.exr", "ref.exr", "--ztest", "ref_var.exr", "--spp", "100", "--json"], &d);
+    assert_eq!(v["ztest"]["passed"], Value::Bool(true));
+    assert!(v["ztest"]["variance"].as_str().unwrap().contains("reference"));
+    let v = json(&["compare", "plain.exr", "ref.exr", "--json"], &d);
+    assert_eq!(v["ztest"], Value::Null);
+}

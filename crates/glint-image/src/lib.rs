@@ -54,6 +54,7 @@ mod planar;
 mod png_io;
 mod read;
 pub mod tonemap;
+pub mod ztest;
 
 pub use atomic::atomic_write;
 pub use error::{ImageError, UnknownToneMap};

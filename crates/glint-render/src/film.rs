@@ -22,6 +22,10 @@ pub struct FilmPixel {
     pub indirect: Rgb,
     /// Path mode: samples that went into the pixel.
     pub samples: f32,
+    /// Path mode without a filter: the variance of one sample's radiance at this pixel (the
+    /// sample variance of its samples, as Mitsuba's `moment` integrator gives it), so that
+    /// `variance / samples` is the variance of `colour`. Zero elsewhere.
+    pub variance: Rgb,
 }
 
 impl Default for FilmPixel {
@@ -35,6 +39,7 @@ impl Default for FilmPixel {
             direct: Rgb::ZERO,
             indirect: Rgb::ZERO,
             samples: 0.0,
+            variance: Rgb::ZERO,
         }
     }
 }
@@ -49,12 +54,21 @@ pub struct Film {
     pub pixels: Vec<FilmPixel>,
     /// The path mode's AOVs (Direct, Indirect, SampleCount) are meaningful and written.
     pub path_aovs: bool,
+    /// The per-pixel sample variance is meaningful (path mode without a filter) and written
+    /// (`Variance.R/G/B`).
+    pub variance: bool,
 }
 
 impl Film {
     #[must_use]
     pub fn new(width: u32, height: u32) -> Self {
-        Self { width, height, pixels: vec![FilmPixel::default(); width as usize * height as usize], path_aovs: false }
+        Self {
+            width,
+            height,
+            pixels: vec![FilmPixel::default(); width as usize * height as usize],
+            path_aovs: false,
+            variance: false,
+        }
     }
 
     /// Make this a `width × height` film for a new frame, reusing its memory when the size is
@@ -65,6 +79,7 @@ impl Film {
             *self = Film::new(width, height);
         }
         self.path_aovs = false;
+        self.variance = false;
     }
 
     /// Take `other`'s pixel wherever it saw a surface nearer than this film's (both of one
@@ -93,10 +108,10 @@ impl Film {
 
     /// Beauty and every AOV as named channels (EXR names: pbrt-v4's where it has them):
     /// R G B A, Albedo.R/G/B, Ns.X/Y/Z, Z, and in path mode Direct.R/G/B, Indirect.R/G/B,
-    /// SampleCount (docs/aovs.md).
+    /// SampleCount, and without a filter Variance.R/G/B (docs/aovs.md).
     #[must_use]
     pub fn aov_image(&self) -> Image {
-        let chans: [ChannelReader; 18] = [
+        let chans: [ChannelReader; 21] = [
             ("R", |p| p.colour.x),
             ("G", |p| p.colour.y),
             ("B", |p| p.colour.z),
@@ -115,8 +130,16 @@ impl Film {
             ("Indirect.G", |p| p.indirect.y),
             ("Indirect.B", |p| p.indirect.z),
             ("SampleCount", |p| p.samples),
+            ("Variance.R", |p| p.variance.x),
+            ("Variance.G", |p| p.variance.y),
+            ("Variance.B", |p| p.variance.z),
         ];
-        self.image_of(&chans[..if self.path_aovs { 18 } else { 11 }])
+        let len = match (self.path_aovs, self.variance) {
+            (true, true) => 21,
+            (true, false) => 18,
+            _ => 11,
+        };
+        self.image_of(&chans[..len])
     }
 
     /// The named planes, filled in parallel (one pass over the pixels per band of rows).

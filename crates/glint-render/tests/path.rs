@@ -544,3 +544,46 @@ fn wavefront_and_recursive_tracers_agree_in_distribution() {
     assert!((total_a - total_b).abs() < 4.0 * se, "image sums {total_a} vs {total_b} ± {se}");
     assert!(total_a > 10.0, "a lit picture: {total_a}");
 }
+
+/// The Variance AOV is the variance of one sample: across frames of different seeds, a
+/// pixel's mean of N samples varies by Variance / N (averaged over the image, within the
+/// sampling error of 200 frames; a sphere over a floor under a uniform sky, whose samples are
+/// bounded so that the variance of the variance is small), and it is written only without a
+/// filter.
+#[test]
+fn the_variance_aov_is_the_variance_of_one_sample() {
+    let world = World::new(Scene {
+        camera: Camera::look_at(Vec3::new(0.0, 1.5, 3.0), Vec3::ZERO, Vec3::Y, Fov::Vertical(50.0)),
+        sky: Sky::Colour(Rgb::ONE),
+        materials: vec![white_diffuse(0.8)],
+        objects: vec![
+            object(Shape::Sphere { centre: Vec3::new(0.0, 0.5, 0.0), radius: 0.5 }, 0),
+            object(Shape::Plane { normal: Vec3::Y, offset: 0.0 }, 0),
+        ],
+        ..Scene::default()
+    });
+    let (w, h, spp, frames) = (12, 12, 8, 200);
+    let p = path(spp, 2, Filter::None);
+    let mut sum = vec![0.0f64; w * h];
+    let mut sum_sq = vec![0.0f64; w * h];
+    let mut predicted = 0.0;
+    for seed in 0..frames {
+        let s = common::Settings { seed, ..settings(w as u32, h as u32) };
+        let film = path_frame(&world, &s, &p).expect("render").0;
+        assert!(film.variance);
+        for (i, px) in film.pixels.iter().enumerate() {
+            let c = f64::from(px.colour.x);
+            sum[i] += c;
+            sum_sq[i] += c * c;
+            predicted += f64::from(px.variance.x) / f64::from(spp);
+        }
+    }
+    let n = frames as f64;
+    let observed = (0..w * h).map(|i| (sum_sq[i] - sum[i] * sum[i] / n) / (n - 1.0)).sum::<f64>() / (w * h) as f64;
+    let predicted = predicted / (n * (w * h) as f64);
+    assert!(predicted > 0.0);
+    assert!((observed / predicted - 1.0).abs() < 0.05, "observed {observed:e}, predicted {predicted:e}");
+    let guided = path(4, 2, Filter::Guided(GuidedParams::for_width(8)));
+    let film = path_frame(&world, &settings(8, 8), &guided).expect("render").0;
+    assert!(!film.variance && film.aov_image().channel("Variance.R").is_none());
+}

@@ -9,6 +9,7 @@
 use crate::cli::CompareArgs;
 use anyhow::{Context, Result, anyhow, bail};
 use glint_image::metrics::{self, ErrorReport, REL_MSE_EPSILON};
+use glint_image::ztest::{self, Variances, ZTest};
 use glint_image::{Image, ImageError, PngOptions};
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -44,17 +45,63 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         );
     }
     let report = metrics::compare(&image, &reference)?;
+    let ztest = match &args.ztest {
+        Some(var) => Some(run_ztest(args, var, &image, &reference)?),
+        None => None,
+    };
     let diff = match &args.diff {
         Some(path) => Some(write_diff(path, &image, &reference, args.diff_scale)?),
         None => None,
     };
     let text = if args.json {
-        json(args, &image, &report, diff.as_ref())
+        json(args, &image, &report, diff.as_ref(), ztest.as_ref())
     } else {
-        table(args, &image, &report, diff.as_ref())
+        table(args, &image, &report, diff.as_ref(), ztest.as_ref())
     };
     // A closed pipe (`glint compare ... | head -1`) is an error, not a panic.
-    std::io::stdout().write_all(text.as_bytes()).context("cannot write to standard output")
+    std::io::stdout().write_all(text.as_bytes()).context("cannot write to standard output")?;
+    match ztest {
+        Some((t, _)) if !t.passed => bail!(
+            "z-test failed: {:.3} % of the pixel-channels accepted (at least {} % needed)",
+            100.0 * t.fraction,
+            100.0 * ztest::PASS_FRACTION
+        ),
+        _ => Ok(()),
+    }
+}
+
+/// The z-test of `--ztest VAR`: which variances it used, and its outcome.
+fn run_ztest(args: &CompareArgs, var: &Path, image: &Image, reference: &Image) -> Result<(ZTest, &'static str)> {
+    let reference_var = load(var)?;
+    let full = glint_image::read_image(&args.image).map_err(flat)?;
+    let own = ["Variance.R", "Variance.G", "Variance.B"].map(|n| full.channel(n).map(<[f32]>::to_vec));
+    let spp = match args.spp {
+        Some(n) => n,
+        None => match full.channel("SampleCount") {
+            Some(c) if !c.is_empty() => c.iter().map(|&v| f64::from(v)).sum::<f64>() / c.len() as f64,
+            _ => bail!(
+                "--ztest: {} has no SampleCount channel; say how many samples per pixel it has with --spp N",
+                args.image.display()
+            ),
+        },
+    };
+    let own_image = match own {
+        [Some(r), Some(g), Some(b)] => {
+            let mut v = Image::new(image.width, image.height);
+            for (name, data) in ["R", "G", "B"].into_iter().zip([r, g, b]) {
+                v.add_channel(name, data).with_context(|| format!("{}: inconsistent image", args.image.display()))?;
+            }
+            Some(v)
+        }
+        _ => None,
+    };
+    let (variances, source) = match &own_image {
+        Some(v) => (Variances::Own { image: v, spp, reference_spp: args.reference_spp }, "the image's own"),
+        None => (Variances::ReferenceOnly { spp }, "the reference's (Mitsuba's form)"),
+    };
+    let t = ztest::z_test(image, reference, &reference_var, variances, ztest::SIGNIFICANCE)
+        .map_err(|e| anyhow!("--ztest {}: {e}", var.display()))?;
+    Ok((t, source))
 }
 
 /// Reads `path` and keeps its `R`, `G`, `B` planes (a lone `Y` is replicated), which must be
@@ -120,7 +167,13 @@ fn write_diff<'a>(path: &'a Path, image: &Image, reference: &Image, scale: Optio
     Ok(Diff { path, scale, scale_is_default })
 }
 
-fn table(args: &CompareArgs, image: &Image, r: &ErrorReport, diff: Option<&Diff<'_>>) -> String {
+fn table(
+    args: &CompareArgs,
+    image: &Image,
+    r: &ErrorReport,
+    diff: Option<&Diff<'_>>,
+    ztest: Option<&(ZTest, &str)>,
+) -> String {
     let mut out = String::new();
     let mut row = |label: &str, value: String| {
         let _ = writeln!(out, "  {label:<34}{value}");
@@ -138,6 +191,24 @@ fn table(args: &CompareArgs, image: &Image, r: &ErrorReport, diff: Option<&Diff<
             format!("{} (top colour: RMS RGB error {} = {source})", d.path.display(), significant(d.scale.into())),
         );
     }
+    if let Some((t, source)) = ztest {
+        row(
+            "z-test (Mitsuba's render test)",
+            format!(
+                "{}: {}/{} pixel-channels accepted ({:.3} %, need {} %), alpha {:.3e}, variance: {source}",
+                if t.passed { "PASS" } else { "FAIL" },
+                t.accepted,
+                t.tested,
+                100.0 * t.fraction,
+                100.0 * ztest::PASS_FRACTION,
+                t.alpha
+            ),
+        );
+        row(
+            "z-test, least likely pixel",
+            format!("({}, {}) {} z = {:.2}", t.worst.0, t.worst.1, ["X", "Y", "Z"][t.worst.2], t.worst.3),
+        );
+    }
     format!(
         "{} against the reference {} ({}x{})\n{out}",
         args.image.display(),
@@ -147,7 +218,25 @@ fn table(args: &CompareArgs, image: &Image, r: &ErrorReport, diff: Option<&Diff<
     )
 }
 
-fn json(args: &CompareArgs, image: &Image, r: &ErrorReport, diff: Option<&Diff<'_>>) -> String {
+fn json(
+    args: &CompareArgs,
+    image: &Image,
+    r: &ErrorReport,
+    diff: Option<&Diff<'_>>,
+    ztest: Option<&(ZTest, &str)>,
+) -> String {
+    let ztest = match ztest {
+        Some((t, source)) => format!(
+            "{{\"passed\":{},\"accepted\":{},\"tested\":{},\"fraction\":{},\"alpha\":{},\"variance\":{}}}",
+            t.passed,
+            t.accepted,
+            t.tested,
+            json_number(t.fraction),
+            json_number(t.alpha),
+            json_string(source)
+        ),
+        None => "null".to_string(),
+    };
     let diff = match diff {
         Some(d) => format!(
             "{{\"path\":{},\"scale\":{},\"scale_is_default\":{}}}",
@@ -159,7 +248,7 @@ fn json(args: &CompareArgs, image: &Image, r: &ErrorReport, diff: Option<&Diff<'
     };
     format!(
         "{{\"a\":{},\"b\":{},\"width\":{},\"height\":{},\"mse\":{},\"mse_srgb8\":{},\"rel_mse\":{},\
-         \"rel_mse_epsilon\":{},\"psnr_db\":{},\"psnr_srgb8_db\":{},\"ssim\":{},\"diff\":{diff}}}\n",
+         \"rel_mse_epsilon\":{},\"psnr_db\":{},\"psnr_srgb8_db\":{},\"ssim\":{},\"diff\":{diff},\"ztest\":{ztest}}}\n",
         json_string(&args.image.display().to_string()),
         json_string(&args.reference.display().to_string()),
         image.width,

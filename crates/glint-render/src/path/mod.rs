@@ -152,6 +152,31 @@ struct Accum {
     indirect: Rgb,
     covered: u32,
     samples: u32,
+    /// Without a filter: the sums of each sample's radiance and of its square, in double
+    /// precision (the variance is their difference; f32 would cancel).
+    sum: [f64; 3],
+    sum_sq: [f64; 3],
+}
+
+impl Accum {
+    #[inline]
+    fn add_moments(&mut self, c: Rgb) {
+        for (k, v) in c.to_array().into_iter().enumerate() {
+            let v = f64::from(v);
+            self.sum[k] += v;
+            self.sum_sq[k] += v * v;
+        }
+    }
+
+    /// The sample variance of one sample's radiance (Bessel-corrected; 0 below two samples).
+    fn variance(&self) -> Rgb {
+        if self.samples < 2 {
+            return Rgb::ZERO;
+        }
+        let n = f64::from(self.samples);
+        let v = |k: usize| ((self.sum_sq[k] - self.sum[k] * self.sum[k] / n) / (n - 1.0)).max(0.0) as f32;
+        Rgb::new(v(0), v(1), v(2))
+    }
 }
 
 /// Everything a pass needs, shared by the threads.
@@ -419,7 +444,9 @@ fn trace_guides(
                 g.sample = *cs;
             }
             if !filtered {
-                a.colour += cs.rest + cs.albedo * cs.indirect;
+                let c = cs.rest + cs.albedo * cs.indirect;
+                a.add_moments(c);
+                a.colour += c;
                 a.direct += cs.direct;
                 a.indirect += cs.indirect;
                 a.covered += cs.covered as u32;
@@ -532,6 +559,7 @@ fn resolve_film(
 ) {
     film.reset(image.width, image.height);
     film.path_aovs = true;
+    film.variance = !filtered;
     for ((p, a), g) in film.pixels.iter_mut().zip(acc).zip(aovs) {
         let n = a.samples.max(1) as f32;
         let guide = g.sample.guide;
@@ -544,6 +572,7 @@ fn resolve_film(
             direct: a.direct / n,
             indirect: if filtered { a.indirect / passes as f32 } else { a.indirect / n },
             samples: a.samples as f32,
+            variance: if filtered { Rgb::ZERO } else { a.variance() },
         };
     }
 }

@@ -243,6 +243,7 @@ impl PathAccumulator {
                 direct: s.direct / n,
                 indirect,
                 samples: s.samples as f32,
+                variance: Rgb::ZERO,
             };
         });
         Ok(filter_time)
