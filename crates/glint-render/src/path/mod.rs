@@ -21,6 +21,7 @@ mod bsdf;
 mod integrator;
 mod lights;
 mod lookup;
+pub mod models;
 mod progressive;
 mod wavefront;
 
