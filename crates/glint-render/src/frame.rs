@@ -61,7 +61,14 @@ impl ModeSettings {
     pub fn from_defaults(d: &RenderDefaults) -> Self {
         Self {
             whitted: WhittedSettings::from_defaults(d),
-            path: PathSettings { max_bounces: d.max_bounces, max_chain: d.max_depth, ..PathSettings::default() },
+            path: PathSettings {
+                max_bounces: d.max_bounces,
+                max_chain: d.max_depth,
+                spp: d.spp.unwrap_or(1),
+                max_depth: d.path_depth,
+                rr_start: d.rr_depth.unwrap_or(PathSettings::default().rr_start),
+                ..PathSettings::default()
+            },
             points: PointSettings::default(),
         }
     }

@@ -30,6 +30,7 @@ fn path(spp: u32, bounces: u32, filter: Filter) -> PathSettings {
         clamp_indirect: None,
         filter_area_direct: false,
         kernel: PathKernel::Wavefront,
+        max_depth: None,
     }
 }
 

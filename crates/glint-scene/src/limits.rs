@@ -17,6 +17,9 @@ pub const MAX_DEPTH: RangeInclusive<u32> = 0..=64;
 pub const SAMPLES_PER_SIDE: RangeInclusive<u32> = 1..=64;
 /// Path mode: indirect bounces (0 = direct light only).
 pub const MAX_BOUNCES: RangeInclusive<u32> = 0..=64;
+/// Path mode: a path's total vertex budget (Mitsuba's `max_depth`; its −1, unbounded, reads
+/// as the top).
+pub const PATH_DEPTH: RangeInclusive<u32> = 1..=1024;
 /// Path mode: samples per pixel in one pass.
 pub const SPP: RangeInclusive<u32> = 1..=(1 << 16);
 

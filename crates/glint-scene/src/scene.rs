@@ -21,6 +21,14 @@ pub struct RenderDefaults {
     pub mode: RenderMode,
     /// Path mode: indirect bounces.
     pub max_bounces: u32,
+    /// Path mode: samples per pixel the scene asks for (Mitsuba's sampler `sample_count`);
+    /// `--spp` overrides it; None: 1.
+    pub spp: Option<u32>,
+    /// Path mode: a total vertex budget with Mitsuba's meaning (its `max_depth`; see
+    /// `PathSettings::max_depth` in glint-render); None: glint's budgets above.
+    pub path_depth: Option<u32>,
+    /// Path mode: Russian roulette from this bounce on (None: the renderer's default).
+    pub rr_depth: Option<u32>,
 }
 
 /// Rendering modes.
@@ -55,6 +63,9 @@ impl Default for RenderDefaults {
             min_contribution: 1e-3,
             mode: RenderMode::Whitted,
             max_bounces: 3,
+            spp: None,
+            path_depth: None,
+            rr_depth: None,
         }
     }
 }

@@ -204,13 +204,15 @@ fn path_settings(args: &RenderArgs, path: PathSettings, width: u32) -> Result<Pa
         None => None,
     };
     Ok(PathSettings {
-        spp: args.spp.unwrap_or(1),
+        spp: args.spp.unwrap_or(path.spp),
         max_bounces: p.max_bounces.unwrap_or(path.max_bounces),
         filter: filter_from_args(p.filter, &p.filter_options, width)?,
         time_budget,
         clamp_indirect: p.clamp,
         filter_area_direct: !p.paper_split,
         passes: p.passes,
+        // --max-bounces asks for glint's budgets over a Mitsuba scene's max_depth.
+        max_depth: if p.max_bounces.is_some() { None } else { path.max_depth },
         ..path
     })
 }

@@ -12,16 +12,23 @@
 //! - The Phong part is weighted by `1 − K_refl − K_refr` (by `1 − F` with `f0`), so the lobes
 //!   sum to at most 1.
 //!
+//! A material that names a physically based model (`Material::bsdf`) is shaded by it instead
+//! ([`super::shading::Physical`]): the same interface, its diffuse lobe the demodulated part.
+//!
 //! Lobes are chosen for sampling in proportion to their albedos; the non-delta part is one
 //! mixture density (diffuse and glossy pdfs weighted by their choice probabilities), so a
 //! sampled direction is weighted by the whole non-delta BSDF (one-sample MIS over the lobes).
 
+use super::shading::Physical;
 use crate::whitted::optics::{fresnel_dielectric, reflect, refract};
 use glint_core::colour::luminance;
 use glint_core::sampling::sample_cosine_hemisphere;
 use glint_core::{Frame, Rgb, Vec2, Vec3};
 use glint_scene::Material;
 use std::f32::consts::{FRAC_1_PI, TAU};
+
+/// The most delta lobes a BSDF has (a physically based mixture's; the Phong reading has two).
+pub const DELTA_LOBES: usize = super::models::MIXTURE_DELTA_LOBES;
 
 /// A material at one hit, seen from one direction.
 #[derive(Clone, Copy, Debug)]
@@ -44,6 +51,8 @@ pub struct Bsdf {
     p_diffuse: f32,
     p_glossy: f32,
     p_mirror: f32,
+    /// A physically based model, which then answers every query.
+    physical: Option<Physical>,
 }
 
 /// A sampled direction.
@@ -120,19 +129,45 @@ impl Bsdf {
             p_diffuse,
             p_glossy,
             p_mirror,
+            physical: None,
+        }
+    }
+
+    /// A physically based model at a hit whose geometric normal (on the viewer's side) is `ng`.
+    pub fn physical(p: Physical, ng: Vec3) -> Bsdf {
+        Bsdf {
+            normal: p.normal(),
+            geometric: ng,
+            diffuse: p.diffuse_albedo(),
+            glossy: 0.0,
+            exponent: 0.0,
+            mirror: Rgb::ZERO,
+            transmit: Rgb::ZERO,
+            refracted: None,
+            mirror_dir: Vec3::ZERO,
+            p_diffuse: 0.0,
+            p_glossy: 0.0,
+            p_mirror: 0.0,
+            physical: Some(p),
         }
     }
 
     /// Probability that sampling picks a delta lobe.
     #[inline]
     pub fn p_delta(&self) -> f32 {
-        (1.0 - self.p_diffuse - self.p_glossy).max(0.0)
+        match &self.physical {
+            Some(p) => p.p_delta(),
+            None => (1.0 - self.p_diffuse - self.p_glossy).max(0.0),
+        }
     }
 
     /// Probability that sampling picks the non-delta part.
     #[inline]
     pub fn p_non_delta(&self) -> f32 {
-        self.p_diffuse + self.p_glossy
+        match &self.physical {
+            Some(p) => 1.0 - p.p_delta(),
+            None => self.p_diffuse + self.p_glossy,
+        }
     }
 
     pub fn has_non_delta(&self) -> bool {
@@ -162,6 +197,9 @@ impl Bsdf {
     /// glossy part), for a direction `wi` toward the light.
     #[inline]
     pub fn eval_cos(&self, wi: Vec3) -> Rgb {
+        if let Some(p) = &self.physical {
+            return p.eval(wi);
+        }
         let Some(cos) = self.reflects(wi) else { return Rgb::ZERO };
         let mut f = self.diffuse * FRAC_1_PI;
         if self.glossy > 0.0 {
@@ -170,11 +208,24 @@ impl Bsdf {
         f * cos
     }
 
-    /// Glossy part of `eval_cos`.
+    /// Everything of `eval_cos` but the diffuse lobe.
     #[inline]
-    pub fn eval_glossy_cos(&self, wi: Vec3) -> f32 {
-        let Some(cos) = self.reflects(wi) else { return 0.0 };
-        self.glossy * (self.exponent + 2.0) / TAU * self.glossy_lobe(wi) * cos
+    pub fn eval_glossy_cos(&self, wi: Vec3) -> Rgb {
+        if let Some(p) = &self.physical {
+            return p.eval(wi) - self.diffuse * p.eval_diffuse(wi);
+        }
+        let Some(cos) = self.reflects(wi) else { return Rgb::ZERO };
+        Rgb::splat(self.glossy * (self.exponent + 2.0) / TAU * self.glossy_lobe(wi) * cos)
+    }
+
+    /// The diffuse lobe's shape toward `wi` with the cosine: the diffuse lobe of `eval_cos`
+    /// is `diffuse × diffuse_shape` (Phong: `cos/π`).
+    #[inline]
+    pub fn diffuse_shape(&self, wi: Vec3) -> f32 {
+        match &self.physical {
+            Some(p) => p.eval_diffuse(wi),
+            None => self.normal.dot(wi).max(0.0) * FRAC_1_PI,
+        }
     }
 
     #[inline]
@@ -189,6 +240,9 @@ impl Bsdf {
 
     /// Solid-angle pdf of sampling `wi` from the whole BSDF (its non-delta part).
     pub fn pdf(&self, wi: Vec3) -> f32 {
+        if let Some(p) = &self.physical {
+            return p.pdf(wi);
+        }
         let mut p = 0.0;
         if self.p_diffuse > 0.0 {
             p += self.p_diffuse * self.pdf_diffuse(wi);
@@ -219,6 +273,10 @@ impl Bsdf {
 
     /// Sample every lobe (delta lobes included) by its choice probability.
     pub fn sample(&self, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        if let Some(p) = &self.physical {
+            let (wi, weight, pdf, delta) = p.sample(u_lobe, u)?;
+            return Some(BsdfSample { wi, weight, pdf, delta });
+        }
         if u_lobe < self.p_non_delta() {
             return self.non_delta_direction(u_lobe / self.p_non_delta(), u, true);
         }
@@ -239,11 +297,43 @@ impl Bsdf {
         (p_transmit > 0.0).then(|| BsdfSample { wi, weight: self.transmit / p_transmit, pdf: 0.0, delta: true })
     }
 
+    /// A delta lobe, given `u_lobe ≥ p_non_delta()` (the delta part was chosen): weight = the
+    /// lobe's value over the probability of choosing it (the delta part's included). A
+    /// physically based model's delta lobes are chosen in proportion to their luminance.
+    pub fn sample_delta(&self, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        let Some(_) = &self.physical else { return self.sample(u_lobe, u) };
+        let p_delta = self.p_delta();
+        if p_delta <= 0.0 {
+            return None;
+        }
+        let lobes = self.delta_lobes();
+        let lum = lobes.map(|l| l.map_or(0.0, |(_, w)| luminance(w).max(0.0)));
+        let total: f32 = lum.iter().sum();
+        if !(total > 0.0) {
+            return None;
+        }
+        let mut v = ((u_lobe - self.p_non_delta()) / p_delta).clamp(0.0, 1.0) * total;
+        let mut k = lum.iter().rposition(|&l| l > 0.0)?;
+        for (i, &l) in lum.iter().enumerate() {
+            if l > 0.0 && v < l {
+                k = i;
+                break;
+            }
+            v -= l;
+        }
+        let (wi, w) = lobes[k]?;
+        Some(BsdfSample { wi, weight: w * (total / (lum[k] * p_delta)), pdf: 0.0, delta: true })
+    }
+
     /// Sample the non-delta mixture only (the guide vertex's indirect ray): `weight` is the
     /// whole non-delta `f · cos / pdf`.
     pub fn sample_non_delta(&self, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         if !self.has_non_delta() {
             return None;
+        }
+        if let Some(p) = &self.physical {
+            let (wi, weight, pdf) = p.sample_non_delta(u_lobe, u)?;
+            return Some(BsdfSample { wi, weight, pdf, delta: false });
         }
         self.non_delta_direction(u_lobe, u, false)
     }
@@ -262,21 +352,34 @@ impl Bsdf {
         Some(BsdfSample { wi, weight: self.eval_cos(wi) / pdf, pdf, delta: false })
     }
 
-    /// Sample the glossy lobe alone: direction and `f_glossy · cos / pdf_glossy`.
-    pub fn sample_glossy_only(&self, u: Vec2) -> Option<(Vec3, f32)> {
+    /// Sample what is not diffuse among the non-delta lobes: direction and its
+    /// `f_glossy · cos / pdf` (Phong: the glossy lobe alone; a physically based model: its
+    /// non-delta lobes sampled together, weighted by their non-diffuse part).
+    pub fn sample_glossy_only(&self, u_lobe: f32, u: Vec2) -> Option<(Vec3, Rgb)> {
+        if let Some(p) = &self.physical {
+            let (wi, _, pdf) = p.sample_non_delta(u_lobe, u)?;
+            let w = self.eval_glossy_cos(wi) / pdf;
+            return (w.max_element() > 0.0).then_some((wi, w));
+        }
         if self.glossy <= 0.0 {
             return None;
         }
         let wi = self.sample_glossy(u);
         let cos = self.reflects(wi)?;
-        Some((wi, self.glossy * (self.exponent + 2.0) / (self.exponent + 1.0) * cos))
+        Some((wi, Rgb::splat(self.glossy * (self.exponent + 2.0) / (self.exponent + 1.0) * cos)))
     }
 
     /// The delta lobes as (direction, weight) pairs, for deterministic tracing.
-    pub fn delta_lobes(&self) -> [Option<(Vec3, Rgb)>; 2] {
+    pub fn delta_lobes(&self) -> [Option<(Vec3, Rgb)>; DELTA_LOBES] {
+        if let Some(p) = &self.physical {
+            return p.delta_lobes();
+        }
         let m = (self.mirror.max_element() > 0.0).then_some((self.mirror_dir, self.mirror));
         let t = self.refracted.map(|d| (d, self.transmit));
-        [m, t]
+        let mut out = [None; DELTA_LOBES];
+        out[0] = m;
+        out[1] = t;
+        out
     }
 }
 
@@ -341,7 +444,7 @@ mod tests {
         let glass = Material { transparency: 1.0, diffuse: 0.0, specular: 0.0, ..Material::default() };
         let b = bsdf(&glass);
         assert!(b.is_delta_dominant() && !b.has_non_delta());
-        let [m, t] = b.delta_lobes();
+        let [m, t, ..] = b.delta_lobes();
         let (m, t) = (m.expect("reflects"), t.expect("refracts"));
         assert!((m.1.x + t.1.x - 1.0).abs() < 1e-6 && m.1.x < 0.1);
         let mirror = Material { reflectivity: 1.0, ..Material::default() };

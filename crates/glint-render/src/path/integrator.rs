@@ -18,11 +18,11 @@
 
 use super::bsdf::Bsdf;
 use super::lights::{LightSet, power_heuristic};
+use super::shading::Physical;
 use crate::stats::RayCounts;
 use crate::world::{SurfaceHit, World};
 use glint_core::random::SampleStream;
 use glint_core::{Ray, Rgb, Vec3};
-use std::f32::consts::FRAC_1_PI;
 
 #[derive(Clone, Copy, Debug)]
 pub struct PathParams {
@@ -38,6 +38,8 @@ pub struct PathParams {
     /// Route the diffuse part of the sampled (area and sky) direct light through the filter
     /// too (an extension of the paper: its direct light came from point lights).
     pub filter_area_direct: bool,
+    /// Mitsuba's total vertex budget ([`super::PathSettings::max_depth`]).
+    pub max_depth: Option<u32>,
 }
 
 /// Scale `c` down so that its largest component is at most `limit`.
@@ -132,9 +134,14 @@ fn orient(hit: &SurfaceHit, dir: Vec3) -> (bool, Vec3, Vec3, Vec3) {
 #[inline]
 pub(super) fn bsdf_at(world: &World, hit: &SurfaceHit, dir: Vec3) -> (Bsdf, Rgb) {
     let m = world.material(hit.material);
-    let albedo = world.albedo(hit);
     let (entering, ng, ns, wo) = orient(hit, dir);
-    (Bsdf::new(m, albedo, wo, ns, ng, entering), m.emitted(hit.geometric_normal, wo))
+    let emitted = m.emitted(hit.geometric_normal, wo);
+    // A physically based model when the material names one (Scene validation bounds its tree
+    // to what a Mixture holds; should one not fit, the Phong reading stands in).
+    if let Some(physical) = m.bsdf.and_then(|root| Physical::at(world, hit, dir, root)) {
+        return (Bsdf::physical(physical, ng), emitted);
+    }
+    (Bsdf::new(m, world.albedo(hit), wo, ns, ng, entering), emitted)
 }
 
 /// The light samples of next-event estimation at `hit`: every delta light of
@@ -169,8 +176,7 @@ pub(super) fn light_samples(
         if f.max_element() > 0.0 {
             counts.shadow += 1;
             let w = if ls.pdf == 0.0 || !mis { 1.0 } else { power_heuristic(ls.pdf, bsdf.pdf(ls.wi)) };
-            let diffuse =
-                if ls.pdf > 0.0 { ls.weight * (w * bsdf.normal.dot(ls.wi).max(0.0) * FRAC_1_PI) } else { Rgb::ZERO };
+            let diffuse = if ls.pdf > 0.0 { ls.weight * (w * bsdf.diffuse_shape(ls.wi)) } else { Rgb::ZERO };
             visit(&ls.shadow, f * ls.weight * w, diffuse);
         }
     }
@@ -201,7 +207,10 @@ impl<'a> Integrator<'a> {
         let mut ray = primary;
         let mut throughput = Rgb::ONE;
         let mut depth = 0.0;
-        for chain in 0..=self.params.max_chain {
+        // Mitsuba's budget: vertex `chain` exists; it samples light and continues only while
+        // vertex `chain + 1` is within `max_depth`.
+        let last_chain = self.params.max_depth.map_or(self.params.max_chain, |l| l.saturating_sub(1));
+        for chain in 0..=last_chain {
             let found = if chain == 0 {
                 self.counts.primary += 1;
                 first
@@ -222,20 +231,25 @@ impl<'a> Integrator<'a> {
             depth = if chain == 0 { depth_of(hit.position) } else { depth + hit.t };
             let (bsdf, emission) = self.bsdf_at(&hit, ray.dir);
             out.rest += throughput * emission;
+            let bounces = match self.params.max_depth {
+                Some(l) if chain + 1 >= l => return out,
+                Some(l) => l - 2 - chain,
+                None => self.params.max_bounces,
+            };
             let u_lobe = stream.next_1d();
             let u = stream.next_2d();
             if bsdf.is_delta_dominant() {
                 if u_lobe >= bsdf.p_non_delta() {
-                    let Some(s) = bsdf.sample(u_lobe, u) else { return out };
+                    let Some(s) = bsdf.sample_delta(u_lobe, u) else { return out };
                     throughput *= s.weight;
                     ray = hit.spawn_ray(s.wi);
                     continue;
                 }
                 // The non-delta part was chosen: the guide vertex, its delta lobes accounted.
                 throughput /= bsdf.p_non_delta();
-                self.guide_vertex(&hit, &bsdf, throughput, false, stream, mode, &mut out);
+                self.guide_vertex(&hit, &bsdf, throughput, false, bounces, stream, mode, &mut out);
             } else {
-                self.guide_vertex(&hit, &bsdf, throughput, true, stream, mode, &mut out);
+                self.guide_vertex(&hit, &bsdf, throughput, true, bounces, stream, mode, &mut out);
             }
             out.guide = Some(GuideGeometry { normal: bsdf.normal, depth });
             return out;
@@ -250,6 +264,7 @@ impl<'a> Integrator<'a> {
         bsdf: &Bsdf,
         throughput: Rgb,
         with_delta: bool,
+        bounces: u32,
         stream: &mut SampleStream,
         mode: IndirectMode,
         out: &mut CameraSample,
@@ -267,25 +282,24 @@ impl<'a> Integrator<'a> {
             if mode == IndirectMode::Trace {
                 out.indirect = filtered_direct;
             }
-            if self.params.max_bounces > 0 {
+            if bounces > 0 {
                 let u_lobe = stream.next_1d();
                 let u = stream.next_2d();
                 match mode {
                     IndirectMode::Trace => {
                         if let Some(s) = bsdf.sample_non_delta(u_lobe, u) {
                             let arrival = Arrival { pdf: s.pdf, delta: false, after_guide: true, from: hit.position };
-                            let li = self.trace_path(hit.spawn_ray(s.wi), 1, arrival, stream);
+                            let li = self.trace_path(hit.spawn_ray(s.wi), 1, bounces, arrival, stream);
                             let li = clamp_radiance(li, self.params.clamp_indirect);
-                            let cos = bsdf.normal.dot(s.wi).max(0.0);
-                            out.indirect += li * (cos * FRAC_1_PI / s.pdf);
+                            out.indirect += li * (bsdf.diffuse_shape(s.wi) / s.pdf);
                             out.rest += throughput * li * (bsdf.eval_glossy_cos(s.wi) / s.pdf);
                         }
                     }
                     IndirectMode::Lookup => {
-                        if let Some((wi, w)) = bsdf.sample_glossy_only(u) {
+                        if let Some((wi, w)) = bsdf.sample_glossy_only(u_lobe, u) {
                             let arrival =
                                 Arrival { pdf: bsdf.pdf(wi), delta: false, after_guide: true, from: hit.position };
-                            let li = self.trace_path(hit.spawn_ray(wi), 1, arrival, stream);
+                            let li = self.trace_path(hit.spawn_ray(wi), 1, bounces, arrival, stream);
                             out.rest += throughput * clamp_radiance(li, self.params.clamp_indirect) * w;
                         }
                     }
@@ -295,7 +309,9 @@ impl<'a> Integrator<'a> {
         if with_delta {
             for (dir, weight) in bsdf.delta_lobes().into_iter().flatten() {
                 let arrival = Arrival { pdf: 0.0, delta: true, after_guide: false, from: hit.position };
-                let li = self.trace_path(hit.spawn_ray(dir), 0, arrival, stream);
+                // glint's budget does not count delta bounces; Mitsuba's does.
+                let first = u32::from(self.params.max_depth.is_some());
+                let li = self.trace_path(hit.spawn_ray(dir), first, bounces, arrival, stream);
                 out.rest += throughput * weight * li;
             }
         }
@@ -329,8 +345,16 @@ impl<'a> Integrator<'a> {
     }
 
     /// Radiance arriving along `ray`, whose first hit is vertex number `bounce` of the path
-    /// after the guide vertex (0 for rays that continue a camera chain).
-    fn trace_path(&mut self, mut ray: Ray, mut bounce: u32, mut arrival: Arrival, stream: &mut SampleStream) -> Rgb {
+    /// after the guide vertex (0 for rays that continue a camera chain); vertices up to
+    /// `max_bounces` sample light, those before it continue.
+    fn trace_path(
+        &mut self,
+        mut ray: Ray,
+        mut bounce: u32,
+        max_bounces: u32,
+        mut arrival: Arrival,
+        stream: &mut SampleStream,
+    ) -> Rgb {
         let mut radiance = Rgb::ZERO;
         let mut beta = Rgb::ONE;
         loop {
@@ -347,13 +371,13 @@ impl<'a> Integrator<'a> {
                 let weight = arrival.emission_weight(self.lights.pdf_surface(arrival.from, ray.dir, &hit));
                 radiance += beta * emission * weight;
             }
-            if bsdf.has_non_delta() {
+            if bsdf.has_non_delta() && bounce <= max_bounces {
                 // MIS against BSDF sampling, except at the last vertex, whose BSDF ray is not
                 // traced (then light sampling alone counts).
-                let mis = bounce < self.params.max_bounces;
+                let mis = bounce < max_bounces;
                 radiance += beta * self.direct_light(&hit, &bsdf, stream, mis);
             }
-            if bounce >= self.params.max_bounces {
+            if bounce >= max_bounces {
                 break;
             }
             let u_lobe = stream.next_1d();

@@ -23,6 +23,7 @@ mod lights;
 mod lookup;
 pub mod models;
 mod progressive;
+mod shading;
 mod wavefront;
 
 use crate::bands::{self, Hooks};
@@ -72,6 +73,14 @@ pub struct PathSettings {
     /// are never filtered (sharp shadows).
     pub filter_area_direct: bool,
     pub kernel: PathKernel,
+    /// Mitsuba's `max_depth`: a path has at most this many vertices (every bounce counts,
+    /// mirror and glass ones included: 1 = emitters seen directly, 2 = direct light). Light
+    /// is sampled at a vertex and its BSDF followed only while the next vertex is within the
+    /// budget, as Mitsuba's `path` integrator does, so scenes read from Mitsuba XML render
+    /// the same light transport. `None`: glint's own budgets (`max_bounces` after the guide
+    /// vertex, `max_chain` before it). The recursive kernel runs such frames (the wavefront
+    /// kernel keeps glint's budgets).
+    pub max_depth: Option<u32>,
 }
 
 /// How the path tracer runs its samples (the same estimator either way; BENCHMARKS.md §6
@@ -99,6 +108,7 @@ impl Default for PathSettings {
             clamp_indirect: None,
             filter_area_direct: true,
             kernel: PathKernel::default(),
+            max_depth: None,
         }
     }
 }
@@ -111,6 +121,7 @@ impl PathSettings {
         limits::check("samples per pixel", self.spp, &limits::SPP)
             .and_then(|()| limits::check("bounces", self.max_bounces, &limits::MAX_BOUNCES))
             .and_then(|()| limits::check("max depth", self.max_chain, &limits::MAX_DEPTH))
+            .and_then(|()| self.max_depth.map_or(Ok(()), |d| limits::check("path depth", d, &limits::PATH_DEPTH)))
             .map_err(RenderError::InvalidSetting)?;
         if let Some(c) = self.clamp_indirect
             && !(c.is_finite() && c > 0.0)
@@ -206,6 +217,7 @@ impl Frame {
                 rr_start: path.rr_start,
                 clamp_indirect: path.clamp_indirect.unwrap_or(f32::INFINITY),
                 filter_area_direct: path.filter_area_direct && path.filtered(),
+                max_depth: path.max_depth,
             },
             seed: image.seed,
             schedule: image.schedule,
@@ -270,6 +282,7 @@ enum Tracer<'a> {
 
 impl<'a> Tracer<'a> {
     fn new(world: &'a World, frame: &'a Frame, kernel: PathKernel) -> Self {
+        let kernel = if frame.params.max_depth.is_some() { PathKernel::Recursive } else { kernel };
         match kernel {
             PathKernel::Wavefront => Tracer::Wavefront {
                 wavefront: Box::new(Wavefront::new(world, frame)),

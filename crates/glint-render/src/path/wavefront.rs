@@ -31,7 +31,6 @@ use crate::stats::RayCounts;
 use crate::world::{SurfaceHit, World};
 use glint_core::random::SampleStream;
 use glint_core::{Ray, Rgb, Vec2, Vec3};
-use std::f32::consts::FRAC_1_PI;
 
 /// The stream dimensions of delta lobe `k` of a guide vertex start at `(k + 1) ·` this, far
 /// beyond what any path reads (a few dimensions per bounce, bounces capped by
@@ -251,7 +250,7 @@ impl<'a> Wavefront<'a> {
         let with_delta = if bsdf.is_delta_dominant() {
             if u_lobe >= bsdf.p_non_delta() {
                 // Through the mirror or the glass, while the chain may grow.
-                let Some(s) = bsdf.sample(u_lobe, u) else { return };
+                let Some(s) = bsdf.sample_delta(u_lobe, u) else { return };
                 leg.throughput *= s.weight;
                 if leg.chain < self.frame.params.max_chain {
                     leg.chain += 1;
@@ -296,20 +295,19 @@ impl<'a> Wavefront<'a> {
                 match leg.mode {
                     IndirectMode::Trace => {
                         if let Some(s) = bsdf.sample_non_delta(u_lobe, u) {
-                            let cos = bsdf.normal.dot(s.wi).max(0.0);
                             let arrival = Arrival { pdf: s.pdf, delta: false, after_guide: true, from: hit.position };
                             let tail = Tail {
                                 slot,
                                 li: Rgb::ZERO,
                                 clamp: true,
                                 to_rest: throughput * (bsdf.eval_glossy_cos(s.wi) / s.pdf),
-                                to_indirect: cos * FRAC_1_PI / s.pdf,
+                                to_indirect: bsdf.diffuse_shape(s.wi) / s.pdf,
                             };
                             self.start_tail(tail, hit.spawn_ray(s.wi), stream, 1, arrival);
                         }
                     }
                     IndirectMode::Lookup => {
-                        if let Some((wi, w)) = bsdf.sample_glossy_only(u) {
+                        if let Some((wi, w)) = bsdf.sample_glossy_only(u_lobe, u) {
                             let arrival =
                                 Arrival { pdf: bsdf.pdf(wi), delta: false, after_guide: true, from: hit.position };
                             let tail =

@@ -83,6 +83,63 @@ impl World {
         }
     }
 
+    /// The surface's partial derivatives `(∂p/∂u, ∂p/∂v)` at a hit, in world space: what
+    /// orients an anisotropic BSDF, a normal map's tangent space and a bump map's gradient
+    /// (Mitsuba's `dp_du`, `dp_dv`). Triangles: from their positions and uvs (solving
+    /// `Δp = ∂p/∂u Δu + ∂p/∂v Δv` over two edges); spheres: of their longitude/latitude uv;
+    /// planes: their uv axes. Where the uvs are missing or degenerate, an arbitrary
+    /// orthonormal pair around the geometric normal (Mitsuba's `coordinate_system`). Computed
+    /// on demand: only the physically based models ask.
+    #[must_use]
+    pub fn uv_derivatives(&self, hit: &SurfaceHit) -> (Vec3, Vec3) {
+        let fallback = || {
+            let f = glint_core::Frame::from_z(hit.geometric_normal);
+            (f.x, f.y)
+        };
+        let Some(Some(index)) = self.instance_of_object.get(hit.object as usize) else {
+            return match self.planes.iter().find(|p| p.object == hit.object) {
+                Some(p) => (p.u_axis, p.v_axis),
+                None => fallback(),
+            };
+        };
+        let inst = &self.instances[*index];
+        let (du, dv) = match inst.shape {
+            InstanceShape::Sphere { centre, radius } => {
+                // uv = (0.5 + atan2(x, −z)/2π, 1 − acos(y)/π) of the local unit direction.
+                let local = inst.object_from_world.transform_point3(hit.position) - centre;
+                let (x, z) = (local.x, local.z);
+                let r_xz = (x * x + z * z).sqrt();
+                if r_xz <= 1e-7 * radius {
+                    return fallback();
+                }
+                let tau = std::f32::consts::TAU;
+                let du = Vec3::new(-z, 0.0, -x) * tau;
+                let y = local.y / radius;
+                let sin_theta = (1.0 - y * y).max(0.0).sqrt();
+                // ∂p/∂v with v = 1 − θ/π: p moves toward +y as v grows.
+                let dv = Vec3::new(x / r_xz * -y, sin_theta, z / r_xz * -y) * (std::f32::consts::PI * radius);
+                (du, dv)
+            }
+            InstanceShape::Mesh(m) if hit.prim != NO_PRIM => {
+                let mesh = &self.meshes[m];
+                let Some(uvs) = &mesh.uvs else { return fallback() };
+                let [i0, i1, i2] = mesh.triangles[hit.prim as usize].map(|i| i as usize);
+                let (dp0, dp1) = (mesh.positions[i1] - mesh.positions[i0], mesh.positions[i2] - mesh.positions[i0]);
+                let (duv0, duv1) = (uvs[i1] - uvs[i0], uvs[i2] - uvs[i0]);
+                let det = duv0.x * duv1.y - duv0.y * duv1.x;
+                if det == 0.0 || !det.is_finite() {
+                    return fallback();
+                }
+                let inv = 1.0 / det;
+                ((dp0 * duv1.y - dp1 * duv0.y) * inv, (dp1 * duv0.x - dp0 * duv1.x) * inv)
+            }
+            InstanceShape::Mesh(_) => return fallback(),
+        };
+        let m = &inst.world_from_object;
+        let (du, dv) = if inst.identity { (du, dv) } else { (m.transform_vector3(du), m.transform_vector3(dv)) };
+        if du.is_finite() && dv.is_finite() && du.length_squared() > 0.0 { (du, dv) } else { fallback() }
+    }
+
     pub(super) fn surface_hit(&self, ray: &Ray, found: Found, t: f32) -> Option<SurfaceHit> {
         match found {
             Found::None => None,
