@@ -170,7 +170,7 @@ impl LightLanes {
             Light::Directional { direction, colour, intensity } => {
                 LightLanes { kind: LightKind::Directional, direction, colour, intensity, ..base }
             }
-            Light::Spot { position, direction, inner_deg, outer_deg, colour, intensity, attenuation } => LightLanes {
+            Light::Spot { position, direction, inner_deg, outer_deg, colour, intensity, attenuation, .. } => LightLanes {
                 kind: LightKind::Spot,
                 position,
                 direction,
