@@ -79,7 +79,16 @@ impl Light {
             Light::Directional { direction, colour, intensity } => {
                 Some(LightSample { wi: -direction, distance: f32::INFINITY, radiance: colour * intensity })
             }
-            Light::Spot { position, direction, inner_deg, outer_deg, colour, intensity, attenuation, falloff: curve } => {
+            Light::Spot {
+                position,
+                direction,
+                inner_deg,
+                outer_deg,
+                colour,
+                intensity,
+                attenuation,
+                falloff: curve,
+            } => {
                 let d = position - p;
                 let dist = d.length();
                 if dist <= 0.0 {

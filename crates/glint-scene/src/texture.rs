@@ -109,17 +109,9 @@ impl TextureImage {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Texture {
     /// Read at `sampling.uv_transform(uv) · scale`.
-    Image {
-        image: Arc<TextureImage>,
-        scale: Vec2,
-        sampling: ImageSampling,
-    },
+    Image { image: Arc<TextureImage>, scale: Vec2, sampling: ImageSampling },
     /// Squares of side `size` (in uv units) alternating `even` and `odd`.
-    Checker {
-        size: f32,
-        even: Rgb,
-        odd: Rgb,
-    },
+    Checker { size: f32, even: Rgb, odd: Rgb },
 }
 
 impl Texture {
