@@ -132,7 +132,7 @@ impl<'a> Builder<'a> {
                     spec_tint: f(self, "spec_tint", 0.0)?,
                     sheen: f(self, "sheen", 0.0)?,
                     sheen_tint: f(self, "sheen_tint", 0.0)?,
-                    flatness: if thin { f(self, "flatness", 0.0)? } else { Tex::Value(0.0) },
+                    flatness: f(self, "flatness", 0.0)?,
                     clearcoat: if thin { Tex::Value(0.0) } else { f(self, "clearcoat", 0.0)? },
                     clearcoat_gloss: if thin { Tex::Value(0.0) } else { f(self, "clearcoat_gloss", 0.0)? },
                     diff_trans: if thin { f(self, "diff_trans", 0.0)? } else { Tex::Value(0.0) },
