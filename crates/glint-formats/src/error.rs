@@ -59,7 +59,7 @@ pub enum FormatError {
     Write { file: PathBuf, message: String },
 
     /// The file's extension is not one glint reads.
-    #[error("{}: unsupported file type '{extension}' (glint reads .toml scenes and .obj, .ply, .gltf, .glb models)", file.display())]
+    #[error("{}: unsupported file type '{extension}' (glint reads .toml and Mitsuba .xml scenes and .obj, .ply, .gltf, .glb models)", file.display())]
     UnsupportedFormat { file: PathBuf, extension: String },
 }
 

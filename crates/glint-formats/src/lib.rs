@@ -2,6 +2,7 @@
 //!
 //! - the TOML scene format (docs/scene-format.md): serde with unknown keys rejected, every
 //!   error at its file:line:column, names and paths resolved, the result validated;
+//! - Mitsuba 3 XML scenes ([`mitsuba`]), with their render settings;
 //! - model files: OBJ/MTL (own parser, fast, errors with line numbers), PLY (own parser:
 //!   ASCII and binary, general element/property reader shared with point clouds), glTF 2.0
 //!   (.gltf/.glb through the `gltf` crate);
@@ -17,6 +18,7 @@
 
 pub mod error;
 mod gltf_file;
+pub mod mitsuba;
 mod model;
 mod obj;
 pub mod ply;
@@ -48,7 +50,8 @@ pub struct Loaded {
     pub warnings: Vec<String>,
 }
 
-/// Reads a scene (`.toml`), a model to look at (`.obj`, `.ply`, `.gltf`, `.glb`; see
+/// Reads a scene (`.toml`, or a Mitsuba 3 `.xml` read strictly with no parameters: see
+/// [`mitsuba::load`] for parameters, leniency and the render settings), a model to look at (`.obj`, `.ply`, `.gltf`, `.glb`; see
 /// [`scene_for_model`]) or a point cloud (`.las`, `.laz`, `.xyz`, `.pts`, and a `.ply` without
 /// faces; see [`scene_for_cloud`]), by extension, case-insensitive.
 pub fn load(path: &Path) -> Result<Loaded, FormatError> {
@@ -63,6 +66,10 @@ pub fn load_with(path: &Path, points: &points::PointReadOptions) -> Result<Loade
         let scene = scene_for_cloud(cloud);
         scene.validate().map_err(|source| FormatError::Invalid { file: path.to_path_buf(), source })?;
         return Ok(Loaded { scene, warnings: Vec::new() });
+    }
+    if ext.eq_ignore_ascii_case("xml") {
+        let m = mitsuba::load(path, &[], false)?;
+        return Ok(Loaded { scene: m.scene, warnings: m.warnings });
     }
     if ext.eq_ignore_ascii_case("toml") {
         let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;

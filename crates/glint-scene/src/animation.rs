@@ -180,15 +180,18 @@ impl Animation {
             Light::Directional { direction, colour, intensity } => {
                 Light::Directional { direction: turn(direction), colour, intensity }
             }
-            Light::Spot { position, direction, inner_deg, outer_deg, colour, intensity, attenuation } => Light::Spot {
-                position: m.transform_point3(position),
-                direction: turn(direction),
-                inner_deg,
-                outer_deg,
-                colour,
-                intensity,
-                attenuation,
-            },
+            Light::Spot { position, direction, inner_deg, outer_deg, colour, intensity, attenuation, falloff } => {
+                Light::Spot {
+                    position: m.transform_point3(position),
+                    direction: turn(direction),
+                    inner_deg,
+                    outer_deg,
+                    colour,
+                    intensity,
+                    attenuation,
+                    falloff,
+                }
+            }
         })
     }
 }
@@ -466,6 +469,7 @@ mod tests {
                     colour: Rgb::ONE,
                     intensity: 1.0,
                     attenuation: Default::default(),
+                    falloff: Default::default(),
                 },
             ],
             ..Scene::default()

@@ -26,7 +26,7 @@ pub use animation::{Animation, AnimationBase, AnimationTarget, Keyframes, Motion
 pub use bsdf::{BsdfId, BsdfKind, Distribution, Principled, Roughness, Tex};
 pub use camera::{Camera, CameraRays, Fov};
 pub use error::SceneError;
-pub use light::{Attenuation, Light};
+pub use light::{Attenuation, Light, SpotFalloff};
 pub use material::Material;
 pub use mesh::Mesh;
 pub use object::{CloudObject, Object, Shape};
@@ -36,4 +36,4 @@ pub use sky::{
     CubeFace, CubeMap, IrradianceSh, LatLongMap, Sky, SkySample, SkySampler, SkyTransform, cube_direction,
     cube_face_st, latlong_direction, latlong_uv,
 };
-pub use texture::{Texture, TextureImage};
+pub use texture::{ImageSampling, TexelFilter, Texture, TextureImage, Wrap};

@@ -2,6 +2,17 @@
 
 use glint_core::{Rgb, Vec3};
 
+/// How a spot light's intensity falls off between its inner and outer cones.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SpotFalloff {
+    /// Smoothstep on the cosine of the angle from the axis (glint's own spots).
+    #[default]
+    Smoothstep,
+    /// Linear in the angle itself, `(outer − θ) / (outer − inner)`: Mitsuba 3's `spot`
+    /// (`beam_width` is the inner cone, `cutoff_angle` the outer one).
+    LinearAngle,
+}
+
 /// How a positional light's intensity falls off with distance.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Attenuation {
@@ -26,8 +37,8 @@ pub enum Light {
         colour: Rgb,
         intensity: f32,
     },
-    /// Full intensity inside `inner_deg` of the axis, smoothly (smoothstep) falling to zero at
-    /// `outer_deg`.
+    /// Full intensity inside `inner_deg` of the axis, falling to zero at `outer_deg` as
+    /// `falloff` says (smoothstep unless the scene came from Mitsuba).
     Spot {
         position: Vec3,
         direction: Vec3,
@@ -36,6 +47,7 @@ pub enum Light {
         colour: Rgb,
         intensity: f32,
         attenuation: Attenuation,
+        falloff: SpotFalloff,
     },
 }
 
@@ -67,7 +79,16 @@ impl Light {
             Light::Directional { direction, colour, intensity } => {
                 Some(LightSample { wi: -direction, distance: f32::INFINITY, radiance: colour * intensity })
             }
-            Light::Spot { position, direction, inner_deg, outer_deg, colour, intensity, attenuation } => {
+            Light::Spot {
+                position,
+                direction,
+                inner_deg,
+                outer_deg,
+                colour,
+                intensity,
+                attenuation,
+                falloff: curve,
+            } => {
                 let d = position - p;
                 let dist = d.length();
                 if dist <= 0.0 {
@@ -75,7 +96,10 @@ impl Light {
                 }
                 let wi = d / dist;
                 let cos = (-wi).dot(direction);
-                let cone = spot_falloff(cos, inner_deg, outer_deg);
+                let cone = match curve {
+                    SpotFalloff::Smoothstep => spot_falloff(cos, inner_deg, outer_deg),
+                    SpotFalloff::LinearAngle => spot_falloff_linear(cos, inner_deg, outer_deg),
+                };
                 if cone <= 0.0 {
                     return None;
                 }
@@ -115,6 +139,19 @@ pub fn spot_falloff(cos_angle: f32, inner_deg: f32, outer_deg: f32) -> f32 {
     x * x * (3.0 - 2.0 * x)
 }
 
+/// Mitsuba 3's spot profile: 1 inside `inner_deg`, `(outer − θ)/(outer − inner)` (θ the angle
+/// from the axis, radians) up to `outer_deg`, 0 at and beyond it.
+pub fn spot_falloff_linear(cos_angle: f32, inner_deg: f32, outer_deg: f32) -> f32 {
+    let (inner, outer) = (inner_deg.to_radians(), outer_deg.to_radians());
+    if cos_angle <= outer.cos() {
+        return 0.0;
+    }
+    if cos_angle >= inner.cos() || outer <= inner {
+        return 1.0;
+    }
+    ((outer - cos_angle.clamp(-1.0, 1.0).acos()) / (outer - inner)).clamp(0.0, 1.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -125,6 +162,28 @@ mod tests {
         assert_eq!(spot_falloff(35f32.to_radians().cos(), 20.0, 30.0), 0.0);
         let mid = spot_falloff(25f32.to_radians().cos(), 20.0, 30.0);
         assert!(mid > 0.3 && mid < 0.7, "{mid}");
+    }
+
+    #[test]
+    fn linear_spot_falls_linearly_in_angle() {
+        assert_eq!(spot_falloff_linear(1.0, 15.0, 20.0), 1.0);
+        assert_eq!(spot_falloff_linear(20.5f32.to_radians().cos(), 15.0, 20.0), 0.0);
+        let at = |deg: f32| spot_falloff_linear(deg.to_radians().cos(), 15.0, 20.0);
+        assert!((at(17.5) - 0.5).abs() < 1e-3, "{}", at(17.5));
+        assert!((at(19.0) - 0.2).abs() < 1e-3, "{}", at(19.0));
+        let spot = Light::Spot {
+            position: Vec3::Y,
+            direction: -Vec3::Y,
+            inner_deg: 15.0,
+            outer_deg: 20.0,
+            colour: Rgb::ONE,
+            intensity: 1.0,
+            attenuation: Attenuation::None,
+            falloff: SpotFalloff::LinearAngle,
+        };
+        let p = Vec3::new(17.5f32.to_radians().tan(), 0.0, 0.0);
+        let s = spot.sample_at(p).expect("inside the cone");
+        assert!((s.radiance.x - 0.5).abs() < 1e-3, "{}", s.radiance);
     }
 
     #[test]

@@ -107,7 +107,11 @@ fn read_materials(
                 None => {
                     let t = match read_image(path, base, &image, buffers, warnings)? {
                         Some(img) => {
-                            textures.push(Texture::Image { image: Arc::new(img), scale: Vec2::ONE });
+                            textures.push(Texture::Image {
+                                image: Arc::new(img),
+                                scale: Vec2::ONE,
+                                sampling: Default::default(),
+                            });
                             Some(textures.len() - 1)
                         }
                         None => None,

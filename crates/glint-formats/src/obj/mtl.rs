@@ -232,7 +232,7 @@ impl MaterialLibrary {
                 }
                 None => {
                     let image = Arc::new(texture_file::read_texture_image(&image_path)?);
-                    self.textures.push(Texture::Image { image, scale });
+                    self.textures.push(Texture::Image { image, scale, sampling: Default::default() });
                     self.texture_files.insert(image_path, self.textures.len() - 1);
                     Some(self.textures.len() - 1)
                 }

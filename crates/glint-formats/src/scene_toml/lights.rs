@@ -8,7 +8,7 @@ use super::Builder;
 use super::defs::{Falloff, LightDef, LightKind};
 use crate::error::FormatError;
 use glint_core::Rgb;
-use glint_scene::{Attenuation, Light};
+use glint_scene::{Attenuation, Light, SpotFalloff};
 use toml::Spanned;
 
 impl Builder<'_> {
@@ -75,7 +75,16 @@ impl Builder<'_> {
                         format!("cone angles need 0 <= inner_angle ({inner_deg}) <= outer_angle ({outer_deg}) <= 180"),
                     ));
                 }
-                Ok(Light::Spot { position, direction, inner_deg, outer_deg, colour, intensity, attenuation })
+                Ok(Light::Spot {
+                    position,
+                    direction,
+                    inner_deg,
+                    outer_deg,
+                    colour,
+                    intensity,
+                    attenuation,
+                    falloff: SpotFalloff::Smoothstep,
+                })
             }
         }
     }

@@ -66,7 +66,7 @@ impl Builder<'_> {
                     }
                     None => Vec2::ONE,
                 };
-                Texture::Image { image, scale }
+                Texture::Image { image, scale, sampling: Default::default() }
             }
         };
         self.texture_names.insert(name.clone(), self.scene.textures.len());

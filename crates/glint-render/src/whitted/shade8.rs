@@ -170,16 +170,18 @@ impl LightLanes {
             Light::Directional { direction, colour, intensity } => {
                 LightLanes { kind: LightKind::Directional, direction, colour, intensity, ..base }
             }
-            Light::Spot { position, direction, inner_deg, outer_deg, colour, intensity, attenuation } => LightLanes {
-                kind: LightKind::Spot,
-                position,
-                direction,
-                colour,
-                intensity,
-                inverse_square: attenuation == Attenuation::InverseSquare,
-                cos_inner: inner_deg.to_radians().cos(),
-                cos_outer: outer_deg.to_radians().cos(),
-            },
+            Light::Spot { position, direction, inner_deg, outer_deg, colour, intensity, attenuation, .. } => {
+                LightLanes {
+                    kind: LightKind::Spot,
+                    position,
+                    direction,
+                    colour,
+                    intensity,
+                    inverse_square: attenuation == Attenuation::InverseSquare,
+                    cos_inner: inner_deg.to_radians().cos(),
+                    cos_outer: outer_deg.to_radians().cos(),
+                }
+            }
         }
     }
 

@@ -19,28 +19,51 @@ pub use latlong::{LatLongMap, latlong_direction, latlong_uv};
 pub use sampling::{SkySample, SkySampler};
 pub use sh::IrradianceSh;
 
-use glint_core::{Rgb, Vec3};
+use glint_core::{Mat3, Rgb, Vec3};
 use std::sync::Arc;
 
 /// Where a map sits: turned by `rotation_degrees` about +Y (counter-clockwise seen from above,
-/// so a positive angle moves what was straight ahead to the left), scaled by `intensity`.
+/// so a positive angle moves what was straight ahead to the left), scaled by `intensity`. A
+/// transform made by [`SkyTransform::from_rotation`] turns the map by any rotation instead
+/// (Mitsuba's `envmap` `to_world`); its `rotation_degrees` is 0 and unused.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SkyTransform {
     pub rotation_degrees: f32,
     pub intensity: f32,
     cos: f32,
     sin: f32,
+    /// A general rotation: (map_from_world, world_from_map), orthonormal.
+    rotation: Option<(Mat3, Mat3)>,
 }
 
 impl SkyTransform {
     pub fn new(rotation_degrees: f32, intensity: f32) -> Self {
         let (sin, cos) = rotation_degrees.to_radians().sin_cos();
-        Self { rotation_degrees, intensity, cos, sin }
+        Self { rotation_degrees, intensity, cos, sin, rotation: None }
+    }
+
+    /// A map turned by the rotation `map_from_world` (map-space direction of a world
+    /// direction); None unless it is a finite rotation (orthonormal, determinant +1, to 1e-4).
+    pub fn from_rotation(map_from_world: Mat3, intensity: f32) -> Option<Self> {
+        let m = map_from_world;
+        let ortho = (m * m.transpose() - Mat3::IDENTITY).to_cols_array().iter().all(|e| e.abs() < 1e-4);
+        if !m.is_finite() || !ortho || (m.determinant() - 1.0).abs() > 1e-4 {
+            return None;
+        }
+        Some(Self { rotation_degrees: 0.0, intensity, cos: 1.0, sin: 0.0, rotation: Some((m, m.transpose())) })
+    }
+
+    /// The general rotation (map_from_world), when this transform has one.
+    pub fn map_from_world(&self) -> Option<Mat3> {
+        self.rotation.map(|r| r.0)
     }
 
     /// The map-space direction of world direction `d` (the inverse rotation).
     #[inline(always)]
     pub fn to_map(&self, d: Vec3) -> Vec3 {
+        if let Some((m, _)) = &self.rotation {
+            return *m * d;
+        }
         if self.sin == 0.0 && self.cos == 1.0 {
             return d;
         }
@@ -50,6 +73,9 @@ impl SkyTransform {
     /// The world direction of map-space direction `d` (inverse of [`SkyTransform::to_map`]).
     #[inline(always)]
     pub fn to_world(&self, d: Vec3) -> Vec3 {
+        if let Some((_, m)) = &self.rotation {
+            return *m * d;
+        }
         if self.sin == 0.0 && self.cos == 1.0 {
             return d;
         }
@@ -139,6 +165,17 @@ mod tests {
         assert!(sky.radiance(-Vec3::X).x > 1.9, "{}", sky.radiance(-Vec3::X));
         assert!(sky.radiance(-Vec3::Z).x < 0.01);
         assert!(sky.radiance(Vec3::X).x < 0.01);
+    }
+
+    #[test]
+    fn a_general_rotation_turns_both_ways() {
+        let m = Mat3::from_axis_angle(Vec3::new(1.0, 2.0, 3.0).normalize(), 0.7);
+        let t = SkyTransform::from_rotation(m, 1.0).expect("a rotation");
+        let d = Vec3::new(0.3, -0.5, 0.8).normalize();
+        assert!((t.to_map(d) - m * d).length() < 1e-6);
+        assert!((t.to_world(t.to_map(d)) - d).length() < 1e-5);
+        assert!(SkyTransform::from_rotation(Mat3::from_diagonal(Vec3::new(-1.0, 1.0, 1.0)), 1.0).is_none());
+        assert!(SkyTransform::from_rotation(Mat3::from_diagonal(Vec3::splat(2.0)), 1.0).is_none());
     }
 
     #[test]
