@@ -36,4 +36,4 @@ pub use sky::{
     CubeFace, CubeMap, IrradianceSh, LatLongMap, Sky, SkySample, SkySampler, SkyTransform, cube_direction,
     cube_face_st, latlong_direction, latlong_uv,
 };
-pub use texture::{Texture, TextureImage};
+pub use texture::{Filter, Sampler, Texture, TextureImage, Wrap};
