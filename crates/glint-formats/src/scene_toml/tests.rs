@@ -233,7 +233,7 @@ fn image_texture_is_read_relative_to_the_scene() {
     );
     // Textures must be defined before use: [[texture]] tables may come anywhere in the file.
     let l = load_scene_str(&text, dir.path(), "test.toml").expect("valid");
-    let Texture::Image { image, scale } = &l.scene.textures[0] else { panic!("image texture") };
+    let Texture::Image { image, scale, .. } = &l.scene.textures[0] else { panic!("image texture") };
     assert_eq!((image.width, image.height, *scale), (2, 1, Vec2::splat(2.0)));
     assert_eq!(image.texels[0], Rgb::new(1.0, 0.0, 0.0));
 }
