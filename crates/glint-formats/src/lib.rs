@@ -5,7 +5,8 @@
 //! - Mitsuba 3 XML scenes ([`mitsuba`]), with their render settings;
 //! - model files: OBJ/MTL (own parser, fast, errors with line numbers), PLY (own parser:
 //!   ASCII and binary, general element/property reader shared with point clouds), glTF 2.0
-//!   (.gltf/.glb through the `gltf` crate);
+//!   (.gltf/.glb through the `gltf` crate, read as a whole scene by [`load_gltf`]: cameras,
+//!   punctual lights, physically based materials);
 //! - [`scene_for_model`]: a camera, lights and a sky to look at a model without a scene file;
 //! - sky images ([`load_sky`], [`write_sky`]): six faces by name, crosses, strips and lat-long
 //!   maps, LDR and HDR (docs/skies.md).
@@ -28,6 +29,7 @@ pub mod sky;
 mod texture_file;
 
 pub use error::FormatError;
+pub use gltf_file::{GltfOptions, load_gltf};
 pub use model::{Model, default_camera, load_model, scene_for_cloud, scene_for_model};
 pub use sky::{
     FaceTransform, LoadedSky, SkyLayout, SkyLoadOptions, SkyMapRef, SkySource, SkyWriteOptions, WrittenSky, load_sky,
@@ -50,8 +52,9 @@ pub struct Loaded {
     pub warnings: Vec<String>,
 }
 
-/// Reads a scene (`.toml`, or a Mitsuba 3 `.xml` read strictly with no parameters: see
-/// [`mitsuba::load`] for parameters, leniency and the render settings), a model to look at (`.obj`, `.ply`, `.gltf`, `.glb`; see
+/// Reads a scene (`.toml`; a Mitsuba 3 `.xml` read strictly with no parameters: see
+/// [`mitsuba::load`] for parameters, leniency and the render settings; a glTF file,
+/// `.gltf`/`.glb`: see [`load_gltf`]), a model to look at (`.obj`, `.ply`; see
 /// [`scene_for_model`]) or a point cloud (`.las`, `.laz`, `.xyz`, `.pts`, and a `.ply` without
 /// faces; see [`scene_for_cloud`]), by extension, case-insensitive.
 pub fn load(path: &Path) -> Result<Loaded, FormatError> {
@@ -76,8 +79,11 @@ pub fn load_with(path: &Path, points: &points::PointReadOptions) -> Result<Loade
         let base_dir = path.parent().unwrap_or(Path::new(""));
         return scene_toml::load_scene_text(&text, base_dir, path);
     }
-    if ModelFormat::from_extension(&ext).is_none() {
-        return Err(FormatError::UnsupportedFormat { file: path.to_path_buf(), extension: ext });
+    match ModelFormat::from_extension(&ext) {
+        None => return Err(FormatError::UnsupportedFormat { file: path.to_path_buf(), extension: ext }),
+        // A glTF file is a scene of its own: its cameras, lights and materials.
+        Some(ModelFormat::Gltf) => return load_gltf(path, &GltfOptions::default()),
+        Some(_) => {}
     }
     let mut model = load_model(path)?;
     let warnings = std::mem::take(&mut model.warnings);

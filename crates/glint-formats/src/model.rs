@@ -8,8 +8,8 @@ use crate::scene_toml::Shading;
 use crate::{gltf_file, obj, ply};
 use glint_core::{Affine3A, Bounds3, Rgb, Vec3};
 use glint_scene::{
-    Attenuation, Camera, CloudObject, Fov, Light, Material, Mesh, Object, PointCloud, RenderDefaults, RenderMode,
-    Scene, Shape, Sky, Texture,
+    Attenuation, BsdfKind, Camera, CloudObject, Fov, Light, Material, Mesh, Object, PointCloud, RenderDefaults,
+    RenderMode, Scene, Shape, Sky, Texture,
 };
 use std::path::Path;
 use std::sync::Arc;
@@ -20,7 +20,10 @@ pub struct Model {
     pub meshes: Vec<Mesh>,
     /// Referenced by `Mesh::triangle_materials` (indices into this Vec).
     pub materials: Vec<Material>,
-    /// Referenced by `Material::texture` (indices into this Vec).
+    /// Physically based models, referenced by `Material::bsdf` (indices into this Vec).
+    pub bsdfs: Vec<BsdfKind>,
+    /// Referenced by `Material::texture`, `Material::emission_texture` and the models
+    /// (indices into this Vec).
     pub textures: Vec<Texture>,
     /// What was recovered from (each starts with the file name).
     pub warnings: Vec<String>,
@@ -118,7 +121,7 @@ const MODEL_MARGIN: f32 = 1.25;
 /// (upper left, in front) and a fill light (right, weaker), so that shape reads; a grey sky;
 /// [`Material::default`] where the file gives no material.
 pub fn scene_for_model(model: Model) -> Scene {
-    let Model { meshes, mut materials, textures, .. } = model;
+    let Model { meshes, mut materials, bsdfs, textures, .. } = model;
     let bounds = meshes.iter().fold(Bounds3::EMPTY, |b, m| b.union(m.bounds()));
     let (camera, lights) = framing(bounds, false, default_aspect());
     let default_material = materials.len();
@@ -138,7 +141,7 @@ pub fn scene_for_model(model: Model) -> Scene {
         ambient: Rgb::ONE,
         sky_ambient: false,
         materials,
-        bsdfs: Vec::new(),
+        bsdfs,
         textures,
         meshes: meshes.into_iter().map(Arc::new).collect(),
         objects,

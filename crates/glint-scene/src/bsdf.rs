@@ -79,8 +79,10 @@ pub enum BsdfKind {
     /// sides when `front == back`).
     TwoSided { front: BsdfId, back: BsdfId },
     /// Partly transparent: light passes straight through with probability `1 − opacity`
-    /// (Mitsuba's `mask`: a scalar opacity, an RGB texture read as its luminance).
-    Mask { opacity: Tex<f32>, inner: BsdfId },
+    /// (Mitsuba's `mask`: a scalar opacity, an RGB texture read as its luminance). With a
+    /// `cutoff` (glTF's alpha mode MASK), the opacity is 1 where the looked-up value is at least
+    /// the cutoff and 0 below it (compared after filtering, as glTF specifies).
+    Mask { opacity: Tex<f32>, inner: BsdfId, cutoff: Option<f32> },
     /// Shading normals from the gradient of a height texture times `scale`.
     BumpMap { height: usize, scale: f32, inner: BsdfId },
     /// Shading normals from a tangent-space normal map (`2 rgb − 1`).
@@ -124,6 +126,94 @@ impl BsdfKind {
             }
             BsdfKind::Blend { a, b, .. } => vec![a, b],
             _ => Vec::new(),
+        }
+    }
+
+    /// This model with every BSDF reference passed through `bsdf` and every texture reference
+    /// through `texture` (to append one scene's models to another's).
+    #[must_use]
+    pub fn remapped(&self, bsdf: impl Fn(BsdfId) -> BsdfId, texture: impl Fn(usize) -> usize) -> BsdfKind {
+        let rgb = |t: &Tex<Rgb>| match *t {
+            Tex::Texture(i) => Tex::Texture(texture(i)),
+            v => v,
+        };
+        let scalar = |t: &Tex<f32>| match *t {
+            Tex::Texture(i) => Tex::Texture(texture(i)),
+            v => v,
+        };
+        let rough = |r: &Roughness| Roughness { alpha_u: scalar(&r.alpha_u), alpha_v: scalar(&r.alpha_v), ..*r };
+        match self {
+            BsdfKind::Diffuse { reflectance } => BsdfKind::Diffuse { reflectance: rgb(reflectance) },
+            BsdfKind::Conductor { eta, k, specular_reflectance } => {
+                BsdfKind::Conductor { eta: *eta, k: *k, specular_reflectance: rgb(specular_reflectance) }
+            }
+            BsdfKind::RoughConductor { roughness, eta, k, specular_reflectance } => BsdfKind::RoughConductor {
+                roughness: rough(roughness),
+                eta: *eta,
+                k: *k,
+                specular_reflectance: rgb(specular_reflectance),
+            },
+            BsdfKind::Dielectric { eta, specular_reflectance, specular_transmittance } => BsdfKind::Dielectric {
+                eta: *eta,
+                specular_reflectance: rgb(specular_reflectance),
+                specular_transmittance: rgb(specular_transmittance),
+            },
+            BsdfKind::ThinDielectric { eta, specular_reflectance, specular_transmittance } => {
+                BsdfKind::ThinDielectric {
+                    eta: *eta,
+                    specular_reflectance: rgb(specular_reflectance),
+                    specular_transmittance: rgb(specular_transmittance),
+                }
+            }
+            BsdfKind::RoughDielectric { roughness, eta, specular_reflectance, specular_transmittance } => {
+                BsdfKind::RoughDielectric {
+                    roughness: rough(roughness),
+                    eta: *eta,
+                    specular_reflectance: rgb(specular_reflectance),
+                    specular_transmittance: rgb(specular_transmittance),
+                }
+            }
+            BsdfKind::Plastic { diffuse_reflectance, specular_reflectance, eta, nonlinear } => BsdfKind::Plastic {
+                diffuse_reflectance: rgb(diffuse_reflectance),
+                specular_reflectance: rgb(specular_reflectance),
+                eta: *eta,
+                nonlinear: *nonlinear,
+            },
+            BsdfKind::RoughPlastic { roughness, diffuse_reflectance, specular_reflectance, eta, nonlinear } => {
+                BsdfKind::RoughPlastic {
+                    roughness: rough(roughness),
+                    diffuse_reflectance: rgb(diffuse_reflectance),
+                    specular_reflectance: rgb(specular_reflectance),
+                    eta: *eta,
+                    nonlinear: *nonlinear,
+                }
+            }
+            BsdfKind::TwoSided { front, back } => BsdfKind::TwoSided { front: bsdf(*front), back: bsdf(*back) },
+            BsdfKind::Mask { opacity, inner, cutoff } => {
+                BsdfKind::Mask { opacity: scalar(opacity), inner: bsdf(*inner), cutoff: *cutoff }
+            }
+            BsdfKind::BumpMap { height, scale, inner } => {
+                BsdfKind::BumpMap { height: texture(*height), scale: *scale, inner: bsdf(*inner) }
+            }
+            BsdfKind::NormalMap { normals, inner } => {
+                BsdfKind::NormalMap { normals: texture(*normals), inner: bsdf(*inner) }
+            }
+            BsdfKind::Blend { weight, a, b } => BsdfKind::Blend { weight: scalar(weight), a: bsdf(*a), b: bsdf(*b) },
+            BsdfKind::Principled(p) => BsdfKind::Principled(Box::new(Principled {
+                base_color: rgb(&p.base_color),
+                roughness: scalar(&p.roughness),
+                anisotropic: scalar(&p.anisotropic),
+                metallic: scalar(&p.metallic),
+                spec_trans: scalar(&p.spec_trans),
+                spec_tint: scalar(&p.spec_tint),
+                sheen: scalar(&p.sheen),
+                sheen_tint: scalar(&p.sheen_tint),
+                flatness: scalar(&p.flatness),
+                clearcoat: scalar(&p.clearcoat),
+                clearcoat_gloss: scalar(&p.clearcoat_gloss),
+                diff_trans: scalar(&p.diff_trans),
+                ..(**p).clone()
+            })),
         }
     }
 
@@ -198,5 +288,44 @@ impl BsdfKind {
             _ => {}
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn remapped_moves_every_reference_and_nothing_else() {
+        let p = BsdfKind::Principled(Box::new(Principled {
+            thin: false,
+            base_color: Tex::Texture(1),
+            roughness: Tex::Texture(2),
+            anisotropic: Tex::Value(0.0),
+            metallic: Tex::Value(0.5),
+            spec_trans: Tex::Texture(0),
+            specular: 0.5,
+            spec_tint: Tex::Value(0.0),
+            sheen: Tex::Value(0.0),
+            sheen_tint: Tex::Value(0.0),
+            flatness: Tex::Value(0.0),
+            clearcoat: Tex::Value(0.0),
+            clearcoat_gloss: Tex::Value(0.0),
+            diff_trans: Tex::Value(0.0),
+            eta: Some(1.5),
+        }));
+        let q = p.remapped(|b| b + 100, |t| t + 10);
+        let mut textures = q.textures();
+        textures.sort_unstable();
+        assert_eq!(textures, vec![10, 11, 12]);
+        let BsdfKind::Principled(q) = q else { panic!("principled") };
+        assert_eq!((q.metallic, q.eta, q.specular), (Tex::Value(0.5), Some(1.5), 0.5));
+        let m = BsdfKind::Mask { opacity: Tex::Texture(3), inner: 4, cutoff: Some(0.5) };
+        assert_eq!(
+            m.remapped(|b| b + 1, |t| t * 2),
+            BsdfKind::Mask { opacity: Tex::Texture(6), inner: 5, cutoff: Some(0.5) }
+        );
+        let n = BsdfKind::NormalMap { normals: 1, inner: 0 }.remapped(|b| b + 7, |t| t + 2);
+        assert_eq!((n.children(), n.textures()), (vec![7], vec![3]));
     }
 }

@@ -36,4 +36,4 @@ pub use sky::{
     CubeFace, CubeMap, IrradianceSh, LatLongMap, Sky, SkySample, SkySampler, SkyTransform, cube_direction,
     cube_face_st, latlong_direction, latlong_uv,
 };
-pub use texture::{ImageSampling, TexelFilter, Texture, TextureImage, Wrap};
+pub use texture::{Filter, Sampler, Texture, TextureImage, Wrap};

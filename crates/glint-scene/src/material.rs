@@ -33,6 +33,9 @@ pub struct Material {
     /// face only — the side the geometric normal points to (triangles: by winding; spheres:
     /// outward), as Mitsuba and pbrt emit — unless `two_sided`.
     pub emission: Rgb,
+    /// Index into `Scene::textures`: the emission is `emission` × this texture at the hit's uv
+    /// (glTF's emissiveTexture; [`Material::emission_at`]). `None`: `emission` everywhere.
+    pub emission_texture: Option<usize>,
     /// Emit from both faces.
     pub two_sided: bool,
     /// Fresnel reflection of the surroundings (DESIGN.md §4): the shaded colour is blended with
@@ -62,6 +65,7 @@ impl Default for Material {
             ior: 1.5,
             fresnel: true,
             emission: Rgb::ZERO,
+            emission_texture: None,
             two_sided: false,
             reflection_f0: None,
             bsdf: None,
@@ -76,6 +80,16 @@ impl Material {
     #[must_use]
     pub fn emitted(&self, ng: glint_core::Vec3, wo: glint_core::Vec3) -> Rgb {
         if self.two_sided || ng.dot(wo) > 0.0 { self.emission } else { Rgb::ZERO }
+    }
+
+    /// The emitted radiance at texture coordinates `uv` (`textures` is `Scene::textures`):
+    /// `emission`, times the emission texture when there is one.
+    #[must_use]
+    pub fn emission_at(&self, uv: glint_core::Vec2, textures: &[crate::Texture]) -> Rgb {
+        match self.emission_texture.and_then(|t| textures.get(t)) {
+            Some(t) => self.emission * t.evaluate(uv),
+            None => self.emission,
+        }
     }
 
     pub fn is_transparent(&self) -> bool {

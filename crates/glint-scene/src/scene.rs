@@ -233,6 +233,7 @@ impl Scene {
                 | BsdfKind::Plastic { eta, .. }
                 | BsdfKind::RoughPlastic { eta, .. } => eta_ok(*eta),
                 BsdfKind::BumpMap { scale, .. } => scale.is_finite(),
+                BsdfKind::Mask { cutoff, .. } => cutoff.is_none_or(|c| (0.0..=1.0).contains(&c)),
                 BsdfKind::Principled(p) => p.eta.is_none_or(eta_ok) && p.specular.is_finite(),
                 _ => true,
             } && match b {
@@ -322,9 +323,7 @@ impl Scene {
         {
             return Err(SceneError::invalid(what(), format!("refers to bsdf #{b}, there are {}", self.bsdfs.len())));
         }
-        if let Some(t) = m.texture
-            && t >= self.textures.len()
-        {
+        if let Some(t) = m.texture.into_iter().chain(m.emission_texture).find(|&t| t >= self.textures.len()) {
             return Err(SceneError::BadReference {
                 what: what(),
                 kind: "texture",
@@ -560,7 +559,7 @@ mod tests {
         // A diamond (both halves of a blend wrap the same model) is fine.
         s.bsdfs = vec![
             diffuse.clone(),
-            BsdfKind::Mask { opacity: Tex::Value(0.5), inner: 0 },
+            BsdfKind::Mask { opacity: Tex::Value(0.5), inner: 0, cutoff: None },
             BsdfKind::Blend { weight: Tex::Value(0.5), a: 1, b: 0 },
         ];
         s.materials[0].bsdf = Some(2);

@@ -3,14 +3,13 @@
 //!
 //! Read here rather than by the `gltf` crate's importer, so that a missing file is reported by
 //! name (a missing buffer is an error, a missing image a warning) and a bad URI cannot panic.
-//! [`super::read`] calls [`read_buffers`] first, then [`read_image`] for each base colour image.
+//! [`super::read`] calls [`read_buffers`] and [`check_views`] first; accessors are checked
+//! ([`check_accessor`]) before they are read, images decoded ([`read_image`]) when a material
+//! first uses them.
 
 use crate::error::FormatError;
 use crate::model::file_name;
 use crate::texture_file;
-use glint_core::Rgb;
-use glint_core::colour::srgb_to_linear;
-use glint_scene::TextureImage;
 use std::path::{Path, PathBuf};
 
 pub(super) fn read_buffers(
@@ -125,29 +124,44 @@ pub(super) fn decode_base64(s: &str) -> Option<Vec<u8>> {
     Some(out)
 }
 
-/// A base colour image, decoded to linear RGB. A missing image file is a warning (`None`).
+/// An image's texels as stored (not yet linearised), RGBA in [0, 1], rows top to bottom.
+pub(super) struct RawImage {
+    pub width: u32,
+    pub height: u32,
+    pub texels: Vec<[f32; 4]>,
+}
+
+/// An image of the file, decoded. A missing image file is a warning (`None`): the materials
+/// that use it fall back to their factors.
 pub(super) fn read_image(
     path: &Path,
     base: &Path,
     image: &gltf::Image,
     buffers: &[Vec<u8>],
     warnings: &mut Vec<String>,
-) -> Result<Option<TextureImage>, FormatError> {
+) -> Result<Option<RawImage>, FormatError> {
     let place = format!("images[{}]", image.index());
     let bytes = match image.source() {
         gltf::image::Source::View { view, .. } => {
             let start = view.offset();
-            let slice = buffers.get(view.buffer().index()).and_then(|b| b.get(start..start + view.length()));
+            let slice =
+                buffers.get(view.buffer().index()).and_then(|b| b.get(start..start.checked_add(view.length())?));
             match slice {
                 Some(s) => s.to_vec(),
-                None => return Err(FormatError::malformed(path, place, "the buffer view lies outside its buffer")),
+                None => {
+                    return Err(FormatError::malformed(
+                        path,
+                        place,
+                        format!("bufferViews[{}] lies outside its buffer", view.index()),
+                    ));
+                }
             }
         }
         gltf::image::Source::Uri { uri, .. } => match read_uri(path, base, uri, &place)? {
             UriData::Bytes(b) => b,
             UriData::Missing(file) => {
                 warnings.push(format!(
-                    "{}: texture {} ({place}) not found; its material uses the base colour factor",
+                    "{}: texture {} ({place}) not found; its materials use their factors alone",
                     file_name(path),
                     file.display()
                 ));
@@ -158,7 +172,76 @@ pub(super) fn read_image(
     let decoded = image::load_from_memory(&bytes)
         .map_err(|e| FormatError::malformed(path, place, format!("cannot decode image: {e}")))?;
     texture_file::check_size(path, decoded.width(), decoded.height())?;
-    let rgb = decoded.into_rgb32f();
-    let texels = rgb.pixels().map(|p| Rgb::from_array(p.0.map(srgb_to_linear))).collect();
-    Ok(Some(TextureImage { width: rgb.width(), height: rgb.height(), texels }))
+    let rgba = decoded.into_rgba32f();
+    let texels = rgba.pixels().map(|p| p.0).collect();
+    Ok(Some(RawImage { width: rgba.width(), height: rgba.height(), texels }))
+}
+
+/// Every buffer view inside its buffer: checked once, so that accessors only need to fit
+/// their view.
+pub(super) fn check_views(path: &Path, document: &gltf::Document, buffers: &[Vec<u8>]) -> Result<(), FormatError> {
+    for view in document.views() {
+        let buffer = view.buffer().index();
+        let len = buffers.get(buffer).map_or(0, Vec::len);
+        let end = view.offset().checked_add(view.length());
+        if end.is_none_or(|end| end > len) {
+            return Err(FormatError::malformed(
+                path,
+                format!("bufferViews[{}]", view.index()),
+                format!(
+                    "bytes {}..{} lie outside buffers[{buffer}] ({len} bytes)",
+                    view.offset(),
+                    view.offset().saturating_add(view.length())
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// An accessor's elements inside its buffer view (and sparse parts inside theirs), before it
+/// is read: the `gltf` crate's reader would otherwise stop early or panic.
+pub(super) fn check_accessor(path: &Path, accessor: &gltf::Accessor) -> Result<(), FormatError> {
+    let place = || format!("accessors[{}]", accessor.index());
+    let count = accessor.count();
+    let element = accessor.size();
+    if let Some(view) = accessor.view() {
+        let stride = view.stride().unwrap_or(element);
+        let needed = match count {
+            0 => Some(0),
+            n => (n - 1)
+                .checked_mul(stride)
+                .and_then(|b| b.checked_add(element))
+                .and_then(|b| b.checked_add(accessor.offset())),
+        };
+        if needed.is_none_or(|n| n > view.length()) {
+            return Err(FormatError::malformed(
+                path,
+                place(),
+                format!(
+                    "{count} elements of {element} bytes (stride {stride}) from byte {} do not fit bufferViews[{}] ({} bytes)",
+                    accessor.offset(),
+                    view.index(),
+                    view.length()
+                ),
+            ));
+        }
+    }
+    if let Some(sparse) = accessor.sparse() {
+        let n = sparse.count();
+        let index_size = sparse.indices().index_type().size();
+        for (what, view, offset, size) in [
+            ("sparse indices", sparse.indices().view(), sparse.indices().offset(), index_size),
+            ("sparse values", sparse.values().view(), sparse.values().offset(), element),
+        ] {
+            if n.checked_mul(size).and_then(|b| b.checked_add(offset)).is_none_or(|b| b > view.length()) {
+                return Err(FormatError::malformed(
+                    path,
+                    place(),
+                    format!("{what}: {n} elements do not fit bufferViews[{}]", view.index()),
+                ));
+            }
+        }
+    }
+    Ok(())
 }

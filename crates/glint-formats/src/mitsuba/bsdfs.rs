@@ -91,7 +91,7 @@ impl<'a> Builder<'a> {
             }
             "mask" => {
                 let opacity = self.float_tex(&p, "opacity", 0.5)?;
-                BsdfKind::Mask { opacity, inner: self.one_inner(&p)? }
+                BsdfKind::Mask { opacity, inner: self.one_inner(&p)?, cutoff: None }
             }
             "bumpmap" => {
                 let scale = p.float("scale", 1.0)? as f32;

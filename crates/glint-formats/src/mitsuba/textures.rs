@@ -13,7 +13,7 @@ use super::xml::Element;
 use crate::error::FormatError;
 use glint_core::glam::{Affine2, DMat4, Mat2};
 use glint_core::{Rgb, Vec2};
-use glint_scene::{ImageSampling, TexelFilter, Texture, TextureImage, Wrap};
+use glint_scene::{Filter, Sampler, Texture, TextureImage, Wrap};
 use std::sync::Arc;
 
 /// A Mitsuba `to_uv` (4 × 4, its x/y rows and columns) as a transform of glint's uv.
@@ -49,14 +49,15 @@ impl<'a> Builder<'a> {
                 let c1 = self.constant_colour(&p, "color1", 0.2)?;
                 // Rows top to bottom, as Mitsuba indexes them by v.
                 let image = TextureImage { width: 2, height: 2, texels: vec![c0, c1, c1, c0] };
-                let sampling = ImageSampling { uv_transform, wrap: Wrap::Repeat, filter: TexelFilter::Nearest };
-                Texture::Image { image: Arc::new(image), scale: Vec2::ONE, sampling }
+                let sampler =
+                    Sampler { texture_from_surface: uv_transform, filter: Filter::Nearest, ..Sampler::default() };
+                Texture::Image { image: Arc::new(image), scale: Vec2::ONE, sampler }
             }
             "rawconstant" | "uniform" | "srgb" => {
                 let name = if p.plugin == "srgb" { "color" } else { "value" };
                 let c = self.constant_colour(&p, name, 1.0)?;
                 let image = TextureImage { width: 1, height: 1, texels: vec![c] };
-                Texture::Image { image: Arc::new(image), scale: Vec2::ONE, sampling: ImageSampling::default() }
+                Texture::Image { image: Arc::new(image), scale: Vec2::ONE, sampler: Sampler::default() }
             }
             other => {
                 self.unsupported(&el.loc, format!("texture '{other}' is not supported: a constant 0.5 is used"))?;
@@ -64,7 +65,7 @@ impl<'a> Builder<'a> {
                 self.scene.textures.push(Texture::Image {
                     image: Arc::new(image),
                     scale: Vec2::ONE,
-                    sampling: ImageSampling::default(),
+                    sampler: Sampler::default(),
                 });
                 let i = self.scene.textures.len() - 1;
                 self.texture_cache.insert(k, i);
@@ -98,13 +99,13 @@ impl<'a> Builder<'a> {
         let file = self.resolve(name, p.el)?;
         let raw = p.boolean("raw", false)?;
         let filter = match p.string("filter_type")?.unwrap_or("bilinear") {
-            "bilinear" => TexelFilter::Bilinear,
-            "nearest" => TexelFilter::Nearest,
+            "bilinear" => Filter::Bilinear,
+            "nearest" => Filter::Nearest,
             other => return Err(p.loc().error(format!("filter_type '{other}' is neither bilinear nor nearest"))),
         };
         let wrap = match p.string("wrap_mode")?.unwrap_or("repeat") {
             "repeat" => Wrap::Repeat,
-            "mirror" => Wrap::Mirror,
+            "mirror" => Wrap::MirroredRepeat,
             "clamp" => Wrap::Clamp,
             other => return Err(p.loc().error(format!("wrap_mode '{other}' is none of repeat, mirror, clamp"))),
         };
@@ -119,7 +120,7 @@ impl<'a> Builder<'a> {
         Ok(Texture::Image {
             image: Arc::new(image),
             scale: Vec2::ONE,
-            sampling: ImageSampling { uv_transform, wrap, filter },
+            sampler: Sampler { texture_from_surface: uv_transform, wrap_u: wrap, wrap_v: wrap, filter },
         })
     }
 }

@@ -445,6 +445,7 @@ impl<'a> Parser<'a> {
         Ok(Model {
             meshes,
             materials: self.library.materials,
+            bsdfs: Vec::new(),
             textures: self.library.textures,
             warnings: self.warnings,
         })

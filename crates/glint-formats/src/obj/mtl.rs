@@ -20,7 +20,7 @@ use crate::model::file_name;
 use crate::texture_file;
 use glint_core::colour::luminance;
 use glint_core::{Rgb, Vec2};
-use glint_scene::{Material, Texture};
+use glint_scene::{Material, Sampler, Texture};
 use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -232,7 +232,7 @@ impl MaterialLibrary {
                 }
                 None => {
                     let image = Arc::new(texture_file::read_texture_image(&image_path)?);
-                    self.textures.push(Texture::Image { image, scale, sampling: Default::default() });
+                    self.textures.push(Texture::Image { image, scale, sampler: Sampler::default() });
                     self.texture_files.insert(image_path, self.textures.len() - 1);
                     Some(self.textures.len() - 1)
                 }

@@ -11,7 +11,7 @@ use super::values::V3;
 use crate::error::FormatError;
 use crate::texture_file;
 use glint_core::Vec2;
-use glint_scene::{Material, Texture};
+use glint_scene::{Material, Sampler, Texture};
 use std::sync::Arc;
 use toml::Spanned;
 
@@ -66,7 +66,7 @@ impl Builder<'_> {
                     }
                     None => Vec2::ONE,
                 };
-                Texture::Image { image, scale, sampling: Default::default() }
+                Texture::Image { image, scale, sampler: Sampler::default() }
             }
         };
         self.texture_names.insert(name.clone(), self.scene.textures.len());

@@ -115,11 +115,15 @@ impl Builder<'_> {
         };
         let (material_base, texture_base) = (self.scene.materials.len() as u32, self.scene.textures.len());
         if !overridden && model.meshes.iter().any(|m| m.triangle_materials.is_some()) {
+            let bsdf_base = self.scene.bsdfs.len();
             self.scene.textures.extend(model.textures.iter().cloned());
+            self.scene.bsdfs.extend(model.bsdfs.iter().map(|b| b.remapped(|i| i + bsdf_base, |t| t + texture_base)));
             let stem = file.file_name().map_or_else(String::new, |s| s.to_string_lossy().into_owned());
             self.scene.materials.extend(model.materials.iter().map(|m| Material {
                 name: format!("{stem}/{}", m.name),
                 texture: m.texture.map(|t| t + texture_base),
+                emission_texture: m.emission_texture.map(|t| t + texture_base),
+                bsdf: m.bsdf.map(|b| b + bsdf_base),
                 ..m.clone()
             }));
         }

@@ -302,8 +302,13 @@ impl Reader<'_> {
                 }
                 return self.read(if back_side { *back } else { *front }, weight, depth + 1);
             }
-            BsdfKind::Mask { opacity, inner } => {
+            BsdfKind::Mask { opacity, inner, cutoff } => {
                 let a = self.float(opacity).clamp(0.0, 1.0);
+                // glTF's alpha MASK: all or nothing at the cutoff.
+                let a = match cutoff {
+                    Some(c) => f32::from(u8::from(a >= *c)),
+                    None => a,
+                };
                 if a < 1.0 {
                     self.mixture.set_pass_through(self.mixture.pass_through() + weight * (1.0 - a));
                 }
