@@ -139,7 +139,9 @@ impl<'a> Builder<'a> {
                 let scale = p.float("scale", 1.0)? as f32;
                 p.ignore(&["mis_compensation"]);
                 let image = crate::texture_file::read_texture_image(&file)?;
+                // Mitsuba's rows span the poles (its envmap reads row j at v = j/(H − 1)).
                 let map = LatLongMap::from_image(image)
+                    .map(LatLongMap::with_rows_spanning_poles)
                     .map_err(|source| FormatError::Invalid { file: file.clone(), source })?;
                 let transform = envmap_map_from_world(&world)
                     .and_then(|m| SkyTransform::from_rotation(m, scale))

@@ -128,8 +128,32 @@ pub fn load(path: &Path, defines: &[(String, String)], lenient: bool) -> Result<
     }
     b.scene.render.width = b.settings.width;
     b.scene.render.height = b.settings.height;
+    apply_integrator(&mut b.scene.render, &b.settings);
     b.scene.validate().map_err(|source| FormatError::Invalid { file: path.to_path_buf(), source })?;
     Ok(MitsubaScene { scene: b.scene, settings: b.settings, warnings: b.warnings })
+}
+
+/// The scene's render defaults from its sampler and integrator: the sample count, and
+/// Mitsuba's depth budget (`max_depth`; −1, unbounded, becomes glint's own budgets at their
+/// largest, which differ from Mitsuba's only past 64 bounces; `direct` is a budget of 2,
+/// direct light only).
+fn apply_integrator(render: &mut glint_scene::RenderDefaults, settings: &MitsubaSettings) {
+    use glint_scene::limits;
+    render.spp = settings.spp;
+    match settings.integrator {
+        MitsubaIntegrator::Path { max_depth, rr_depth, .. } => {
+            render.rr_depth = Some(rr_depth);
+            match max_depth {
+                Some(d) => render.path_depth = Some(d.clamp(*limits::PATH_DEPTH.start(), *limits::PATH_DEPTH.end())),
+                None => {
+                    render.path_depth = None;
+                    render.max_bounces = *limits::MAX_BOUNCES.end();
+                    render.max_depth = *limits::MAX_DEPTH.end();
+                }
+            }
+        }
+        MitsubaIntegrator::Direct { .. } => render.path_depth = Some(2),
+    }
 }
 
 fn collect_ids<'a>(el: &'a Element, ids: &mut Ids<'a>) -> Result<(), FormatError> {

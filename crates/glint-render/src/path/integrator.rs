@@ -157,7 +157,7 @@ pub(super) fn light_samples(
     hit: &SurfaceHit,
     bsdf: &Bsdf,
     stream: &mut SampleStream,
-    mis: bool,
+    mis: Option<f32>,
     counts: &mut RayCounts,
     mut visit: impl FnMut(&Ray, Rgb, Rgb),
 ) {
@@ -175,7 +175,10 @@ pub(super) fn light_samples(
         let f = bsdf.eval_cos(ls.wi);
         if f.max_element() > 0.0 {
             counts.shadow += 1;
-            let w = if ls.pdf == 0.0 || !mis { 1.0 } else { power_heuristic(ls.pdf, bsdf.pdf(ls.wi)) };
+            let w = match mis {
+                Some(scale) if ls.pdf > 0.0 => power_heuristic(ls.pdf, bsdf.pdf(ls.wi) * scale),
+                _ => 1.0,
+            };
             let diffuse = if ls.pdf > 0.0 { ls.weight * (w * bsdf.diffuse_shape(ls.wi)) } else { Rgb::ZERO };
             visit(&ls.shadow, f * ls.weight * w, diffuse);
         }
@@ -219,7 +222,9 @@ impl<'a> Integrator<'a> {
                 self.world.intersect(&ray)
             };
             let Some(hit) = found else {
-                let sky = if chain == 0 {
+                // Mitsuba's budget comes with Mitsuba's point lookups of the sky (its pixels
+                // average their samples' lookups; a prefiltered footprint would blur more).
+                let sky = if chain == 0 && self.params.max_depth.is_none() {
                     self.world.sky().radiance_filtered(ray.dir, cone)
                 } else {
                     self.world.sky().radiance(ray.dir)
@@ -272,7 +277,11 @@ impl<'a> Integrator<'a> {
         out.albedo = throughput * bsdf.diffuse;
         if bsdf.has_non_delta() {
             // Direct light: the lights alone.
-            let (direct, sampled_diffuse) = self.direct_light_split(hit, bsdf, stream, false);
+            // Mitsuba's budget: light sampling weighted against the BSDF sample below (whose
+            // density is the non-delta part's alone), as its path integrator weighs them.
+            let mitsuba = self.params.max_depth.is_some();
+            let mis = mitsuba.then(|| 1.0 / bsdf.p_non_delta().max(1e-12));
+            let (direct, sampled_diffuse) = self.direct_light_split(hit, bsdf, stream, mis);
             out.direct = throughput * direct;
             // Optionally the diffuse light of area lights and the sky goes through the filter
             // with the indirect light (traced: into the buffer; lookup: read from the map).
@@ -282,13 +291,14 @@ impl<'a> Integrator<'a> {
             if mode == IndirectMode::Trace {
                 out.indirect = filtered_direct;
             }
-            if bounces > 0 {
+            if bounces > 0 || mitsuba && mode == IndirectMode::Trace {
                 let u_lobe = stream.next_1d();
                 let u = stream.next_2d();
                 match mode {
                     IndirectMode::Trace => {
                         if let Some(s) = bsdf.sample_non_delta(u_lobe, u) {
-                            let arrival = Arrival { pdf: s.pdf, delta: false, after_guide: true, from: hit.position };
+                            let arrival =
+                                Arrival { pdf: s.pdf, delta: false, after_guide: !mitsuba, from: hit.position };
                             let li = self.trace_path(hit.spawn_ray(s.wi), 1, bounces, arrival, stream);
                             let li = clamp_radiance(li, self.params.clamp_indirect);
                             out.indirect += li * (bsdf.diffuse_shape(s.wi) / s.pdf);
@@ -319,7 +329,7 @@ impl<'a> Integrator<'a> {
 
     /// Next-event estimation at `hit`: every delta light of [`LightSet::each_delta`] plus one
     /// sample among the other lights; `mis` weights that sample against BSDF sampling.
-    fn direct_light(&mut self, hit: &SurfaceHit, bsdf: &Bsdf, stream: &mut SampleStream, mis: bool) -> Rgb {
+    fn direct_light(&mut self, hit: &SurfaceHit, bsdf: &Bsdf, stream: &mut SampleStream, mis: Option<f32>) -> Rgb {
         self.direct_light_split(hit, bsdf, stream, mis).0
     }
 
@@ -330,7 +340,7 @@ impl<'a> Integrator<'a> {
         hit: &SurfaceHit,
         bsdf: &Bsdf,
         stream: &mut SampleStream,
-        mis: bool,
+        mis: Option<f32>,
     ) -> (Rgb, Rgb) {
         let mut sum = Rgb::ZERO;
         let mut sampled_diffuse = Rgb::ZERO;
@@ -371,13 +381,16 @@ impl<'a> Integrator<'a> {
                 let weight = arrival.emission_weight(self.lights.pdf_surface(arrival.from, ray.dir, &hit));
                 radiance += beta * emission * weight;
             }
+            // Mitsuba's budget follows the last light-sampling vertex's BSDF one more segment,
+            // for the emission it finds (MIS-weighted); glint's does not trace it.
+            let mitsuba = self.params.max_depth.is_some();
             if bsdf.has_non_delta() && bounce <= max_bounces {
                 // MIS against BSDF sampling, except at the last vertex, whose BSDF ray is not
                 // traced (then light sampling alone counts).
-                let mis = bounce < max_bounces;
+                let mis = (bounce < max_bounces || mitsuba).then_some(1.0);
                 radiance += beta * self.direct_light(&hit, &bsdf, stream, mis);
             }
-            if bounce >= max_bounces {
+            if bounce >= max_bounces + u32::from(mitsuba) {
                 break;
             }
             let u_lobe = stream.next_1d();

@@ -288,7 +288,7 @@ impl<'a> Wavefront<'a> {
         let base = stream;
         if bsdf.has_non_delta() {
             let trace = leg.mode == IndirectMode::Trace;
-            self.light_samples(hit, bsdf, &mut stream, false, Dest::Guide { slot, throughput, albedo, trace });
+            self.light_samples(hit, bsdf, &mut stream, None, Dest::Guide { slot, throughput, albedo, trace });
             if self.frame.params.max_bounces > 0 {
                 let u_lobe = stream.next_1d();
                 let u = stream.next_2d();
@@ -358,7 +358,13 @@ impl<'a> Wavefront<'a> {
         if bsdf.has_non_delta() {
             // MIS against BSDF sampling, except at the last vertex (its BSDF ray is not traced).
             let mis = leg.bounce < params.max_bounces;
-            self.light_samples(&hit, &bsdf, &mut stream, mis, Dest::Tail { tail: leg.tail, beta: leg.beta });
+            self.light_samples(
+                &hit,
+                &bsdf,
+                &mut stream,
+                mis.then_some(1.0),
+                Dest::Tail { tail: leg.tail, beta: leg.beta },
+            );
         }
         if leg.bounce >= params.max_bounces {
             self.ended.push(leg.tail);
@@ -385,7 +391,14 @@ impl<'a> Wavefront<'a> {
     }
 
     /// Next-event estimation at a vertex: its shadow rays queued with what each adds.
-    fn light_samples(&mut self, hit: &SurfaceHit, bsdf: &Bsdf, stream: &mut SampleStream, mis: bool, dest: Dest) {
+    fn light_samples(
+        &mut self,
+        hit: &SurfaceHit,
+        bsdf: &Bsdf,
+        stream: &mut SampleStream,
+        mis: Option<f32>,
+        dest: Dest,
+    ) {
         let frame = self.frame;
         let filter_direct = frame.params.filter_area_direct;
         let shadows = &mut self.shadows;

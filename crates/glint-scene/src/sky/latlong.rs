@@ -84,6 +84,11 @@ pub(crate) fn fast_acos(x: f32) -> f32 {
 #[derive(Clone, Debug, PartialEq)]
 pub struct LatLongMap {
     levels: Vec<Level>,
+    /// Rows span the poles (Mitsuba 3's `envmap`: row j at v = j / (H − 1), the first row the
+    /// north pole, the last the south pole) rather than sitting at the centres of H equal
+    /// bands (v = (j + ½) / H, glint's and most renderers' convention). Finest-level lookups
+    /// honour it; filtered lookups of coarser levels read the bands (a sub-texel shift).
+    rows_span_poles: bool,
 }
 
 impl LatLongMap {
@@ -143,7 +148,14 @@ impl LatLongMap {
             fill_borders(&mut next);
             levels.push(next);
         }
-        LatLongMap { levels }
+        LatLongMap { levels, rows_span_poles: false }
+    }
+
+    /// This map with Mitsuba's row placement (see the field `rows_span_poles`).
+    #[must_use]
+    pub fn with_rows_spanning_poles(mut self) -> LatLongMap {
+        self.rows_span_poles = true;
+        self
     }
 
     pub fn width(&self) -> u32 {
@@ -173,7 +185,18 @@ impl LatLongMap {
     #[inline]
     pub fn lookup(&self, dir: Vec3) -> Rgb {
         let (u, v) = latlong_uv(dir);
-        sample(&self.levels[0], u, v)
+        self.finest_sample(u, v)
+    }
+
+    #[inline(always)]
+    fn finest_sample(&self, u: f32, v: f32) -> Rgb {
+        let l = &self.levels[0];
+        if self.rows_span_poles {
+            // `bilinear` reads texel centres at half-integers: row j at v (H − 1) = j.
+            l.bilinear(u * l.size.x, v * (l.size.y - 1.0) + 0.5)
+        } else {
+            sample(l, u, v)
+        }
     }
 
     /// Trilinear lookup for a footprint `cone_angle` radians wide.
@@ -182,11 +205,11 @@ impl LatLongMap {
         let (u, v) = latlong_uv(dir);
         let texels = cone_angle * self.levels[0].size.y * (1.0 / PI); // footprint in rows
         if texels.is_nan() || texels <= 1.0 {
-            return sample(&self.levels[0], u, v);
+            return self.finest_sample(u, v);
         }
         let lambda = fast_log2(texels);
         if lambda <= 0.0 {
-            return sample(&self.levels[0], u, v);
+            return self.finest_sample(u, v);
         }
         let (l0, w) = mip_blend(lambda, self.levels.len());
         if w >= 1.0 {
