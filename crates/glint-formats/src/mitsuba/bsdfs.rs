@@ -188,7 +188,7 @@ impl<'a> Builder<'a> {
     /// A scalar parameter: a number (an RGB value counts by its luminance), or a texture.
     pub(super) fn float_tex(&mut self, p: &Props<'a>, name: &str, default: f64) -> Result<Tex<f32>, FormatError> {
         match self.rgb_tex(p, name, default, Use::Unbounded)? {
-            Tex::Texture(i) => Ok(Tex::Texture(i)),
+            Tex::Texture(i) => Ok(Tex::Texture(self.float_twins.get(&i).copied().unwrap_or(i))),
             Tex::Value(c) => Ok(Tex::Value(c.x * 0.212_671 + c.y * 0.715_160 + c.z * 0.072_169)),
         }
     }

@@ -114,6 +114,7 @@ pub fn load(path: &Path, defines: &[(String, String)], lenient: bool) -> Result<
         bsdf_cache: HashMap::new(),
         bsdf_busy: Vec::new(),
         texture_cache: HashMap::new(),
+        float_twins: HashMap::new(),
         group_cache: HashMap::new(),
         has_sensor: false,
     };
@@ -186,6 +187,9 @@ pub(super) struct Builder<'a> {
     /// BSDFs being converted (a `<ref>` back to one of them is a cycle).
     bsdf_busy: Vec<usize>,
     texture_cache: HashMap<usize, usize>,
+    /// Textures whose float reading differs from their colour reading (Mitsuba's checkerboard):
+    /// index → the index of the float reading.
+    float_twins: HashMap<usize, usize>,
     group_cache: HashMap<usize, Vec<shapes::Part>>,
     has_sensor: bool,
 }

@@ -414,3 +414,39 @@ fn the_crate_dispatches_xml_here() {
     assert_eq!(loaded.scene.objects.len(), 8);
     assert!(matches!(loaded.scene.textures.first(), None | Some(Texture::Image { .. })));
 }
+
+/// Mitsuba's checkerboard has one parity as a colour (`eval`: color0 where both halves of uv
+/// agree) and the other as a float (`eval_1`: color0 where they differ); a float parameter
+/// reads its twin. (Mitsuba's textured-roughness render tests fail with one reading for both.)
+#[test]
+fn a_checkerboard_read_as_a_float_has_mitsubas_other_parity() {
+    let dir = TempDir::new("mitsuba-checker");
+    let scene = dir.join("s.xml");
+    std::fs::write(
+        &scene,
+        r#"<scene version="3.0.0">
+  <texture type="checkerboard" id="c"><float name="color0" value="0.05"/><float name="color1" value="0.3"/></texture>
+  <bsdf type="diffuse" id="d"><ref name="reflectance" id="c"/></bsdf>
+  <bsdf type="roughconductor" id="r"><ref name="alpha" id="c"/></bsdf>
+  <shape type="rectangle"><ref id="d"/></shape>
+  <shape type="rectangle"><ref id="r"/></shape>
+</scene>"#,
+    )
+    .expect("write");
+    let m = load(&scene, &[], false).expect("loads");
+    let colour = m.scene.bsdfs.iter().find_map(|k| match k {
+        BsdfKind::Diffuse { reflectance: Tex::Texture(t) } => Some(*t),
+        _ => None,
+    });
+    let float = m.scene.bsdfs.iter().find_map(|k| match k {
+        BsdfKind::RoughConductor { roughness, .. } => match roughness.alpha_u {
+            Tex::Texture(t) => Some(t),
+            Tex::Value(_) => None,
+        },
+        _ => None,
+    });
+    let (colour, float) = (colour.expect("textured diffuse"), float.expect("textured alpha"));
+    // Mitsuba uv (0.2, 0.2) (glint's v is 1 − v): both halves low.
+    let at = |t: usize| m.scene.textures[t].evaluate(Vec2::new(0.2, 0.8)).x;
+    assert_eq!((at(colour), at(float)), (0.05, 0.3));
+}

@@ -51,7 +51,18 @@ impl<'a> Builder<'a> {
                 let image = TextureImage { width: 2, height: 2, texels: vec![c0, c1, c1, c0] };
                 let sampler =
                     Sampler { texture_from_surface: uv_transform, filter: Filter::Nearest, ..Sampler::default() };
-                Texture::Image { image: Arc::new(image), scale: Vec2::ONE, sampler }
+                // Mitsuba's checkerboard read as a float (`eval_1`) has the other parity than
+                // as a colour (`eval`: color0 where both halves agree; `eval_1`: where they
+                // differ). Its float reading is a twin with the colours swapped, right after it.
+                let twin = TextureImage { width: 2, height: 2, texels: vec![c1, c0, c0, c1] };
+                let twin = Texture::Image { image: Arc::new(twin), scale: Vec2::ONE, sampler };
+                self.finish(&p)?;
+                self.scene.textures.push(Texture::Image { image: Arc::new(image), scale: Vec2::ONE, sampler });
+                let i = self.scene.textures.len() - 1;
+                self.scene.textures.push(twin);
+                self.float_twins.insert(i, i + 1);
+                self.texture_cache.insert(k, i);
+                return Ok(i);
             }
             "rawconstant" | "uniform" | "srgb" => {
                 let name = if p.plugin == "srgb" { "color" } else { "value" };
