@@ -56,6 +56,22 @@ pub enum Command {
     Filter(FilterArgs),
 }
 
+/// How scene files from other renderers are read (docs/scene-format.md).
+#[derive(Args, Debug, Clone, Default)]
+pub struct SceneArgs {
+    /// Mitsuba XML: give the scene parameter `$NAME` the value VALUE (overrides its
+    /// `<default>`); repeatable.
+    #[arg(short = 'D', value_name = "NAME=VALUE")]
+    pub define: Vec<String>,
+    /// Mitsuba XML and glTF: what glint cannot represent becomes one warning each and the
+    /// nearest supported thing, not an error.
+    #[arg(long)]
+    pub lenient: bool,
+    /// glTF: render from the camera of this name (default: the first camera in node order).
+    #[arg(long = "camera-name", value_name = "NAME")]
+    pub camera_name: Option<String>,
+}
+
 #[derive(Args, Debug, Clone)]
 pub struct CameraArgs {
     /// Camera position "X,Y,Z" (overrides the scene's camera).
@@ -96,6 +112,8 @@ pub struct RenderArgs {
     pub path: PathArgs,
     #[command(flatten)]
     pub points: PointArgs,
+    #[command(flatten)]
+    pub scene: SceneArgs,
     /// Worker threads (default: every core).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -813,6 +831,8 @@ pub struct ViewArgs {
     pub capture: Option<PathBuf>,
     #[command(flatten)]
     pub points: PointArgs,
+    #[command(flatten)]
+    pub scene: SceneArgs,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     #[arg(long)]

@@ -1,5 +1,6 @@
 //! Loading what the user named: a scene file, a model file, or the built-in demo scene.
 
+use crate::cli::SceneArgs;
 use anyhow::{Context, Result, bail};
 use glint_core::Vec3;
 use glint_formats::points::{ColourBy, PointReadOptions};
@@ -14,8 +15,53 @@ pub fn load(path: Option<&Path>, quiet: bool) -> Result<Scene> {
 
 /// [`load`], colouring a point-cloud file's points by `colour_by`.
 pub fn load_with(path: Option<&Path>, colour_by: ColourBy, quiet: bool) -> Result<Scene> {
+    load_scene(path, colour_by, &SceneArgs::default(), quiet)
+}
+
+/// What kind of file the options of [`SceneArgs`] apply to, by extension.
+fn kind_of(path: &Path) -> &'static str {
+    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("xml") => "xml",
+        Some("gltf" | "glb") => "gltf",
+        _ => "other",
+    }
+}
+
+/// `-D NAME=VALUE` pairs.
+fn defines(args: &SceneArgs) -> Result<Vec<(String, String)>> {
+    args.define
+        .iter()
+        .map(|d| match d.split_once('=') {
+            Some((name, value)) if !name.trim().is_empty() => Ok((name.trim().to_string(), value.to_string())),
+            _ => bail!("-D {d:?}: expected NAME=VALUE"),
+        })
+        .collect()
+}
+
+/// [`load_with`] with the options of scene files from other renderers (`-D`, `--lenient`,
+/// `--camera-name`), refused for files they do not apply to.
+pub fn load_scene(path: Option<&Path>, colour_by: ColourBy, args: &SceneArgs, quiet: bool) -> Result<Scene> {
     let options = PointReadOptions { colour_by };
+    let kind = path.map_or("demo", kind_of);
+    if !args.define.is_empty() && kind != "xml" {
+        bail!("-D sets parameters of a Mitsuba XML scene (.xml); this input is not one");
+    }
+    if args.camera_name.is_some() && kind != "gltf" {
+        bail!("--camera-name picks a camera of a glTF file (.gltf, .glb); this input is not one");
+    }
+    if args.lenient && kind != "xml" && kind != "gltf" {
+        bail!("--lenient applies to Mitsuba XML and glTF files; this input is neither");
+    }
     let loaded = match path {
+        Some(p) if kind == "xml" => {
+            let m = glint_formats::mitsuba::load(p, &defines(args)?, args.lenient)
+                .with_context(|| format!("cannot load {}", p.display()))?;
+            glint_formats::Loaded { scene: m.scene, warnings: m.warnings }
+        }
+        Some(p) if kind == "gltf" => {
+            let o = glint_formats::GltfOptions { camera_name: args.camera_name.clone(), lenient: args.lenient };
+            glint_formats::load_gltf(p, &o).with_context(|| format!("cannot load {}", p.display()))?
+        }
         Some(p) => glint_formats::load_with(p, &options).with_context(|| format!("cannot load {}", p.display()))?,
         None => glint_formats::load_scene_str(glint_formats::DEMO_SCENE, Path::new("."), "<built-in demo scene>")
             .context("the built-in demo scene does not load (a bug)")?,

@@ -234,7 +234,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let pool = input::thread_pool(args.threads)?;
     points::check_point_args(&args.points)?;
     let colour_by = args.points.colour_by;
-    let mut scene = input::load_with(args.input.as_deref(), colour_by, args.quiet)?;
+    let mut scene = input::load_scene(args.input.as_deref(), colour_by, &args.scene, args.quiet)?;
     let is_scene_file =
         args.input.as_deref().is_some_and(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml")));
     if colour_by != ColourBy::Auto && (is_scene_file || scene.clouds.is_empty()) {

@@ -32,7 +32,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     }
     // The window's event loop must run on the main thread: the workers are the global pool.
     input::global_thread_pool(args.threads)?;
-    let mut scene = input::load_with(args.input.as_deref(), args.points.colour_by, false)?;
+    let mut scene = input::load_scene(args.input.as_deref(), args.points.colour_by, &args.scene, false)?;
     let mut settings = ViewSettings::new(args.width, args.height, scene.render.mode, &scene.render);
     let m = &mut settings.modes;
     (m.path.spp, m.path.max_bounces, m.path.filter_area_direct) = (args.spp, args.max_bounces, !args.paper_split);

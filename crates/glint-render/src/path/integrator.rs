@@ -40,6 +40,9 @@ pub struct PathParams {
     pub filter_area_direct: bool,
     /// Mitsuba's total vertex budget ([`super::PathSettings::max_depth`]).
     pub max_depth: Option<u32>,
+    /// The frame is filtered (guides and lookups): the guide vertex keeps glint's split
+    /// (light sampling alone for its direct light) even under Mitsuba's budget.
+    pub filtered: bool,
 }
 
 /// Scale `c` down so that its largest component is at most `limit`.
@@ -279,7 +282,7 @@ impl<'a> Integrator<'a> {
             // Direct light: the lights alone.
             // Mitsuba's budget: light sampling weighted against the BSDF sample below (whose
             // density is the non-delta part's alone), as its path integrator weighs them.
-            let mitsuba = self.params.max_depth.is_some();
+            let mitsuba = self.params.max_depth.is_some() && !self.params.filtered;
             let mis = mitsuba.then(|| 1.0 / bsdf.p_non_delta().max(1e-12));
             let (direct, sampled_diffuse) = self.direct_light_split(hit, bsdf, stream, mis);
             out.direct = throughput * direct;

@@ -218,6 +218,7 @@ impl Frame {
                 clamp_indirect: path.clamp_indirect.unwrap_or(f32::INFINITY),
                 filter_area_direct: path.filter_area_direct && path.filtered(),
                 max_depth: path.max_depth,
+                filtered: path.filtered(),
             },
             seed: image.seed,
             schedule: image.schedule,
