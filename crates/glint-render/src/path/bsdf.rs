@@ -309,7 +309,7 @@ impl Bsdf {
         let lobes = self.delta_lobes();
         let lum = lobes.map(|l| l.map_or(0.0, |(_, w)| luminance(w).max(0.0)));
         let total: f32 = lum.iter().sum();
-        if !(total > 0.0) {
+        if total.is_nan() || total <= 0.0 {
             return None;
         }
         let mut v = ((u_lobe - self.p_non_delta()) / p_delta).clamp(0.0, 1.0) * total;

@@ -136,7 +136,7 @@ impl Physical {
             return Some((wi, s.weight, 0.0, true));
         }
         let w = self.perturbation_weight(wi, s.wi);
-        if w == 0.0 || !(s.pdf > 0.0) {
+        if w == 0.0 || s.pdf.is_nan() || s.pdf <= 0.0 {
             return None;
         }
         Some((wi, s.weight * w, s.pdf, false))
@@ -155,7 +155,7 @@ impl Physical {
             q[k] = if *w > 0.0 { w * (1.0 - m.p_delta(self.wo)).max(0.0) } else { 0.0 };
             total_q += q[k];
         }
-        if !(total_q > 0.0) {
+        if total_q.is_nan() || total_q <= 0.0 {
             return None;
         }
         let mut x = u_lobe * total_q;
@@ -210,7 +210,7 @@ fn to_local(f: &Frame, v: Vec3) -> Vec3 {
 fn gram_schmidt(n: Vec3, dp_du: Vec3) -> Frame {
     let s = dp_du - n * n.dot(dp_du);
     let len = s.length();
-    if !(len > 1e-12) || !len.is_finite() {
+    if len.is_nan() || len <= 1e-12 || !len.is_finite() {
         return Frame::from_z(n);
     }
     let s = s / len;
