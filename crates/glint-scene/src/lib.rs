@@ -18,6 +18,7 @@ pub mod material;
 pub mod mesh;
 pub mod object;
 pub mod points;
+pub mod presets;
 pub mod scene;
 pub mod sky;
 pub mod texture;

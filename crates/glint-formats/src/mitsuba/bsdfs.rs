@@ -4,12 +4,12 @@
 //! `Scene::bsdfs`; a referenced one is converted once.
 
 use super::Builder;
-use super::ior_tables::{CONDUCTORS, DIELECTRIC_IOR};
 use super::props::{Props, Value};
 use super::spectrum::{Use, to_rgb};
 use super::xml::Element;
 use crate::error::FormatError;
 use glint_core::Rgb;
+use glint_scene::presets;
 use glint_scene::{BsdfKind, Distribution, Material, Principled, Roughness, Scene, Tex};
 
 fn rgb(c: [f64; 3]) -> Rgb {
@@ -218,13 +218,13 @@ impl<'a> Builder<'a> {
             };
             return Ok((value(self, "eta", 0.0)?, value(self, "k", 1.0)?));
         }
-        let Some((_, eta, k)) = CONDUCTORS.iter().find(|(n, ..)| *n == material) else {
-            let names: Vec<&str> = CONDUCTORS.iter().map(|c| c.0).collect();
+        let Some((eta, k)) = presets::conductor_preset(material) else {
+            let names: Vec<&str> = presets::conductor_names().collect();
             return Err(p
                 .loc()
                 .error(format!("unknown conductor material '{material}' (known: {})", names.join(", "))));
         };
-        Ok((Rgb::from_array(*eta), Rgb::from_array(*k)))
+        Ok((eta, k))
     }
 
     /// Mitsuba's microfacet parameters: `distribution` (default beckmann), `alpha` (0.1) or
@@ -265,8 +265,8 @@ fn ior(p: &Props, name: &str, default: &str) -> Result<f64, FormatError> {
 
 fn named_ior(p: &Props, name: &str) -> Result<f64, FormatError> {
     let lower = name.to_ascii_lowercase();
-    DIELECTRIC_IOR.iter().find(|(n, _)| *n == lower).map(|(_, v)| f64::from(*v)).ok_or_else(|| {
-        let names: Vec<&str> = DIELECTRIC_IOR.iter().map(|d| d.0).collect();
+    presets::ior_preset(&lower).map(f64::from).ok_or_else(|| {
+        let names: Vec<&str> = presets::ior_names().collect();
         p.loc().error(format!("unknown index of refraction '{name}' (known: {})", names.join(", ")))
     })
 }

@@ -17,7 +17,6 @@
 mod bsdfs;
 mod cie_tables;
 mod emitters;
-mod ior_tables;
 mod props;
 mod sensor;
 mod serialized;

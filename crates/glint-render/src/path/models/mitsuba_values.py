@@ -3,12 +3,12 @@
 
 Prints Rust source: by default the test module `mitsuba_reference.rs` beside this script,
 holding Mitsuba 3's eval, pdf and sample results for a fixed list of (model, parameters, wo,
-wi) cases; with `--presets` the module `presets.rs`: the RGB eta/k of every conductor Mitsuba
+wi) cases; with `--presets` glint-scene's `presets.rs`: the RGB eta/k of every conductor Mitsuba
 ships (its `material` parameter) and its named dielectric indices (include/mitsuba/render/ior.h),
 as Mitsuba itself reports them. Regenerate with
 
     python3 mitsuba_values.py > mitsuba_reference.rs
-    python3 mitsuba_values.py --presets > presets.rs
+    python3 mitsuba_values.py --presets > ../../../../../glint-scene/src/presets.rs
     cargo fmt --all
 
 (needs `pip install mitsuba`; written against Mitsuba 3.6, variant scalar_rgb).

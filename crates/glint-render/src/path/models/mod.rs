@@ -22,11 +22,10 @@ mod microfacet;
 #[cfg(test)]
 mod mitsuba_reference;
 mod plastic;
-mod presets;
 mod principled;
 
+pub use glint_scene::presets::{conductor_preset, ior_preset};
 pub use microfacet::Microfacet;
-pub use presets::{conductor_preset, ior_preset};
 pub use principled::PrincipledParams;
 
 use glint_core::{Rgb, Vec2, Vec3};
