@@ -312,10 +312,10 @@ fn bsdf_defaults_and_wrappers() {
     assert_eq!((r.distribution, r.alpha_u, r.sample_visible), (Distribution::Beckmann, Tex::Value(0.1), true));
     assert_eq!((*eta, *k), (Rgb::ZERO, Rgb::ONE));
     let al = b.iter().find_map(|k| if let BsdfKind::Conductor { eta, k, .. } = k { Some((*eta, *k)) } else { None });
-    assert_eq!(
-        al.expect("Al"),
-        (Rgb::new(1.657_501, 0.880_404_7, 0.521_244_5), Rgb::new(9.223_811, 6.269_502, 4.837_004))
-    );
+    // Mitsuba's Al (glint-scene's presets, read from Mitsuba 3.9.1).
+    let (eta, k) = al.expect("Al");
+    assert_rgb(eta, [1.657_501, 0.880_404_7, 0.521_244_5]);
+    assert_rgb(k, [9.223_811, 6.269_502, 4.837_004]);
     assert!(b.iter().any(|k| matches!(k, BsdfKind::TwoSided { front, back } if front == back)));
     assert!(b.iter().any(|k| matches!(k, BsdfKind::Dielectric { eta, .. } if *eta == 1.333)));
     assert_eq!(m.scene.objects.len(), 5);
