@@ -302,6 +302,14 @@ pub enum FilterArg {
     None,
 }
 
+impl FilterArg {
+    /// The filter a scene gets without `--filter`: guided, or none where the scene asks for
+    /// plain path tracing (Mitsuba scenes).
+    pub fn scene_default(scene: &glint_scene::Scene) -> Self {
+        if scene.render.image_filter { FilterArg::Guided } else { FilterArg::None }
+    }
+}
+
 impl From<FilterArg> for FilterKind {
     fn from(f: FilterArg) -> Self {
         match f {
@@ -351,9 +359,10 @@ pub struct FilterOptions {
 /// Path-mode options of `glint render`.
 #[derive(Args, Debug, Clone)]
 pub struct PathArgs {
-    /// Path mode: image-space filter of the indirect light.
-    #[arg(long, value_enum, default_value = "guided")]
-    pub filter: FilterArg,
+    /// Path mode: image-space filter of the indirect light. Default: guided; none for a
+    /// Mitsuba scene (plain path tracing, as Mitsuba renders it).
+    #[arg(long, value_enum)]
+    pub filter: Option<FilterArg>,
     /// Path mode: indirect bounces (0 = direct light only).
     #[arg(long = "max-bounces", value_name = "N")]
     pub max_bounces: Option<u32>,
@@ -795,9 +804,10 @@ pub struct ViewArgs {
     /// Starting mode; default: the scene's, points for a point cloud.
     #[arg(long, value_enum)]
     pub mode: Option<ModeArg>,
-    /// Path mode: filter of the indirect light (key F cycles).
-    #[arg(long, value_enum, default_value = "guided")]
-    pub filter: FilterArg,
+    /// Path mode: filter of the indirect light (key F cycles). Default: guided; none for a
+    /// Mitsuba scene.
+    #[arg(long, value_enum)]
+    pub filter: Option<FilterArg>,
     /// Path mode: samples per pixel per frame (keys - and =).
     #[arg(long, default_value_t = 1)]
     pub spp: u32,

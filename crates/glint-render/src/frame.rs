@@ -67,6 +67,8 @@ impl ModeSettings {
                 spp: d.spp.unwrap_or(1),
                 max_depth: d.path_depth,
                 rr_start: d.rr_depth.unwrap_or(PathSettings::default().rr_start),
+                pixel_filter: d.pixel_filter,
+                hide_emitters: d.hide_emitters,
                 ..PathSettings::default()
             },
             points: PointSettings::default(),

@@ -7,7 +7,7 @@
 mod common;
 
 use common::{add_path_pass, path_frame, settings};
-use glint_core::{Affine3A, Rgb, Vec3};
+use glint_core::{Affine3A, PixelFilter, Rgb, Vec3};
 use glint_filter::{Filter, GuidedParams};
 use glint_render::path::{PathAccumulator, PathKernel, PathSettings};
 use glint_render::{Film, World};
@@ -31,6 +31,8 @@ fn path(spp: u32, bounces: u32, filter: Filter) -> PathSettings {
         filter_area_direct: false,
         kernel: PathKernel::Wavefront,
         max_depth: None,
+        pixel_filter: PixelFilter::Box,
+        hide_emitters: false,
     }
 }
 
@@ -587,4 +589,83 @@ fn the_variance_aov_is_the_variance_of_one_sample() {
     let guided = path(4, 2, Filter::Guided(GuidedParams::for_width(8)));
     let film = path_frame(&world, &settings(8, 8), &guided).expect("render").0;
     assert!(!film.variance && film.aov_image().channel("Variance.R").is_none());
+}
+
+/// Mitsuba's `hide_emitters`: the sky and an emitter seen directly from the camera add nothing,
+/// while what they light keeps every bit (only the camera vertex's emission is left out).
+#[test]
+fn hidden_emitters_leave_out_only_what_the_camera_sees_directly() {
+    let scene = || Scene {
+        camera: Camera::look_at(Vec3::new(0.0, 1.0, 3.0), Vec3::new(0.0, 0.5, 0.0), Vec3::Y, Fov::Vertical(60.0)),
+        sky: Sky::Colour(Rgb::splat(2.0)),
+        materials: vec![white_diffuse(0.8), Material { emission: Rgb::splat(5.0), ..white_diffuse(0.0) }],
+        objects: vec![
+            object(Shape::Plane { normal: Vec3::Y, offset: 0.0 }, 0),
+            object(Shape::Sphere { centre: Vec3::new(0.0, 0.6, 0.0), radius: 0.3 }, 1),
+        ],
+        ..Scene::default()
+    };
+    for kernel in [PathKernel::Wavefront, PathKernel::Recursive] {
+        let shown = PathSettings { kernel, ..path(4, 2, Filter::None) };
+        let hidden = PathSettings { hide_emitters: true, ..shown };
+        let (a, b) = (render(scene(), 32, 24, &shown), render(scene(), 32, 24, &hidden));
+        let (mut sky, mut lit) = (0, 0);
+        for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+            if (i % 32, i / 32) == (16, 12) {
+                // The emitting sphere in the middle of the picture.
+                assert!(p.colour.x > 4.0 && q.colour.x == 0.0, "{kernel:?}: sphere {} / {}", p.colour.x, q.colour.x);
+            } else if p.coverage == 0.0 {
+                sky += 1;
+                assert_eq!((p.colour.x, q.colour.x), (2.0, 0.0), "{kernel:?}: the sky seen directly is hidden");
+            } else if p.coverage == 1.0 && i / 32 > 18 {
+                lit += 1;
+                assert_eq!(p.colour, q.colour, "{kernel:?}: the floor at pixel {i} keeps its light");
+            }
+        }
+        assert!(sky > 50 && lit > 50, "{kernel:?}: {sky} sky and {lit} floor pixels");
+    }
+}
+
+/// A pixel filter spreads each pixel's samples as its profile: next to a sharp edge between a
+/// black wall (left half) and a white sky, the pixels see the sky in the proportion of the
+/// profile's mass on the sky's side (the box filter: a hard step).
+#[test]
+fn pixel_filters_weight_samples_by_their_profile() {
+    let wall = glint_scene::Mesh {
+        name: "wall".into(),
+        positions: vec![
+            Vec3::new(-100.0, -100.0, -1.0),
+            Vec3::new(0.0, -100.0, -1.0),
+            Vec3::new(0.0, 100.0, -1.0),
+            Vec3::new(-100.0, 100.0, -1.0),
+        ],
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+        ..glint_scene::Mesh::default()
+    };
+    let scene = Scene {
+        camera: Camera::look_at(Vec3::ZERO, -Vec3::Z, Vec3::Y, Fov::Vertical(40.0)),
+        sky: Sky::Colour(Rgb::ONE),
+        materials: vec![white_diffuse(0.0)],
+        meshes: vec![Arc::new(wall)],
+        objects: vec![object(Shape::Mesh(0), 0)],
+        ..Scene::default()
+    };
+    let world = World::new(scene);
+    for filter in [PixelFilter::Box, PixelFilter::Tent { radius: 1.0 }, PixelFilter::Gaussian { stddev: 0.5 }] {
+        let p = PathSettings { pixel_filter: filter, ..path(1024, 0, Filter::None) };
+        let film = path_frame(&world, &settings(16, 8), &p).expect("render").0;
+        // The fraction of the profile's mass beyond `d` pixels (fine midpoint sums).
+        let r = filter.radius();
+        let mass = |a: f32, b: f32| {
+            (0..4000).map(|k| filter.eval(a + (b - a) * (k as f32 + 0.5) / 4000.0)).sum::<f32>() * (b - a)
+        };
+        let beyond = |d: f32| if d >= r { 0.0 } else { mass(d, r) / mass(-r, r) };
+        for x in 6..10 {
+            // Pixel x's centre is x + ½ − 8 pixels right of the edge.
+            let d = x as f32 + 0.5 - 8.0;
+            let want = if d > 0.0 { 1.0 - beyond(d) } else { beyond(-d) };
+            let got = (0..8).map(|y| film.pixel(x, y).colour.x).sum::<f32>() / 8.0;
+            assert!((got - want).abs() < 0.01, "{filter:?}: pixel {x}: {got}, profile says {want}");
+        }
+    }
 }

@@ -29,6 +29,15 @@ pub struct RenderDefaults {
     pub path_depth: Option<u32>,
     /// Path mode: Russian roulette from this bounce on (None: the renderer's default).
     pub rr_depth: Option<u32>,
+    /// Path mode: filter the indirect light in image space unless told otherwise (the
+    /// `--filter` default: guided). Mitsuba scenes say no: their integrators have no filter,
+    /// and a researcher comparing against Mitsuba expects its plain estimator.
+    pub image_filter: bool,
+    /// Path mode: the film's pixel filter (Mitsuba's `rfilter`; glint's own scenes: box).
+    pub pixel_filter: glint_core::PixelFilter,
+    /// Path mode: emitters and the sky seen directly by the camera are left out (Mitsuba's
+    /// `hide_emitters`); seen in mirrors and glass, and as light, they stay.
+    pub hide_emitters: bool,
 }
 
 /// Rendering modes.
@@ -66,6 +75,9 @@ impl Default for RenderDefaults {
             spp: None,
             path_depth: None,
             rr_depth: None,
+            image_filter: true,
+            pixel_filter: glint_core::PixelFilter::Box,
+            hide_emitters: false,
         }
     }
 }

@@ -11,7 +11,7 @@ use glint_formats::sky::{FaceTransform, SkyLoadOptions, SkySource, load_sky};
 use glint_image::PngOptions;
 use glint_render::path::PathSettings;
 use glint_render::{Film, Hooks, ImageSettings, Mode, ModeSettings, Renderer};
-use glint_scene::{Camera, Fov, RenderMode, Scene, Sky, SkyTransform};
+use glint_scene::{Camera, Fov, RenderMode, Scene, Sky};
 use std::path::Path;
 use std::time::Duration;
 
@@ -130,10 +130,7 @@ fn apply_sky(scene: &mut Scene, args: &SkyArgs, input: Option<&Path>) -> Result<
         let (rotation, intensity) = (args.sky_rotation, args.sky_intensity);
         match &mut scene.sky {
             Sky::CubeMap { transform, .. } | Sky::LatLong { transform, .. } => {
-                *transform = SkyTransform::new(
-                    rotation.unwrap_or(transform.rotation_degrees),
-                    transform.intensity * intensity.unwrap_or(1.0),
-                );
+                *transform = transform.adjusted(rotation, intensity.unwrap_or(1.0));
             }
             Sky::Colour(c) => *c *= intensity.unwrap_or(1.0),
             Sky::Gradient { zenith, horizon, ground } => {
@@ -196,8 +193,9 @@ pub fn filter_from_args(kind: FilterArg, o: &FilterOptions, width: u32) -> Resul
 }
 
 /// Path-mode settings from the command line over the scene's (`path`).
-fn path_settings(args: &RenderArgs, path: PathSettings, width: u32) -> Result<PathSettings> {
+fn path_settings(args: &RenderArgs, path: PathSettings, width: u32, scene: &Scene) -> Result<PathSettings> {
     let p = &args.path;
+    let filter = p.filter.unwrap_or(FilterArg::scene_default(scene));
     let time_budget = match p.time {
         Some(t) if t.is_finite() && t > 0.0 && t < 1e6 => Some(Duration::from_secs_f64(t)),
         Some(t) => bail!("--time {t}: must be a number of seconds > 0"),
@@ -206,7 +204,7 @@ fn path_settings(args: &RenderArgs, path: PathSettings, width: u32) -> Result<Pa
     Ok(PathSettings {
         spp: args.spp.unwrap_or(path.spp),
         max_bounces: p.max_bounces.unwrap_or(path.max_bounces),
-        filter: filter_from_args(p.filter, &p.filter_options, width)?,
+        filter: filter_from_args(filter, &p.filter_options, width)?,
         time_budget,
         clamp_indirect: p.clamp,
         filter_area_direct: !p.paper_split,
@@ -221,7 +219,7 @@ fn path_settings(args: &RenderArgs, path: PathSettings, width: u32) -> Result<Pa
 fn frame_settings(args: &RenderArgs, scene: &Scene) -> Result<(ImageSettings, Mode)> {
     let image = ImageSettings { seed: args.seed, ..ImageSettings::new(scene.render.width, scene.render.height) };
     let mut modes = ModeSettings::from_defaults(&scene.render);
-    modes.path = path_settings(args, modes.path, image.width)?;
+    modes.path = path_settings(args, modes.path, image.width, scene)?;
     modes.points = points::point_settings(&args.points, &image)?;
     Ok((image, modes.mode(mode(args, scene))))
 }

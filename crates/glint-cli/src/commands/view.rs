@@ -2,7 +2,7 @@
 
 use super::points::{point_settings, prepare_clouds};
 use super::render::filter_from_args;
-use crate::cli::{CameraControlArg, FilterOptions, ViewArgs, clap_defaults};
+use crate::cli::{CameraControlArg, FilterArg, FilterOptions, ViewArgs, clap_defaults};
 use crate::input;
 use anyhow::{Context, Result, bail};
 use glint_render::ImageSettings;
@@ -39,8 +39,9 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     (m.whitted.max_depth, m.path.max_chain) = (args.max_depth, args.max_depth);
     m.path.validate().context("path mode")?;
     // Checks the filter's options as `glint render` does.
-    filter_from_args(args.filter, &clap_defaults::<FilterOptions>()?, args.width)?;
-    settings.filter = args.filter.into();
+    let filter = args.filter.unwrap_or(FilterArg::scene_default(&scene));
+    filter_from_args(filter, &clap_defaults::<FilterOptions>()?, args.width)?;
+    settings.filter = filter.into();
     settings.modes.points = point_settings(&args.points, &ImageSettings::new(args.width, args.height))?;
     settings.seed = args.seed;
     let title = match &args.input {

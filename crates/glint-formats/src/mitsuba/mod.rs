@@ -87,13 +87,8 @@ pub enum MitsubaIntegrator {
     Direct { emitter_samples: u32, bsdf_samples: u32, hide_emitters: bool },
 }
 
-/// The film's reconstruction filter.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum PixelFilter {
-    Box,
-    Tent { radius: f32 },
-    Gaussian { stddev: f32 },
-}
+/// The film's reconstruction filter (glint samples positions from it: `glint_core::pixel_filter`).
+pub use glint_core::PixelFilter;
 
 /// Reads a Mitsuba 3 scene. `defines` set `$name` parameters (winning over `<default>`);
 /// `lenient` turns what glint cannot represent into warnings and substitutes.
@@ -140,6 +135,13 @@ pub fn load(path: &Path, defines: &[(String, String)], lenient: bool) -> Result<
 fn apply_integrator(render: &mut glint_scene::RenderDefaults, settings: &MitsubaSettings) {
     use glint_scene::limits;
     render.spp = settings.spp;
+    render.image_filter = false;
+    render.pixel_filter = settings.filter;
+    render.hide_emitters = match settings.integrator {
+        MitsubaIntegrator::Path { hide_emitters, .. } | MitsubaIntegrator::Direct { hide_emitters, .. } => {
+            hide_emitters
+        }
+    };
     match settings.integrator {
         MitsubaIntegrator::Path { max_depth, rr_depth, .. } => {
             render.rr_depth = Some(rr_depth);

@@ -226,6 +226,7 @@ impl<'a> Builder<'a> {
                     PixelFilter::Gaussian { stddev: 0.5 }
                 }
             };
+            self.settings.filter.validate().map_err(|m| f.loc.error(m))?;
             self.finish(&fp)?;
         }
         self.finish(&p)

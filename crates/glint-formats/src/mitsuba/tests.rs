@@ -74,6 +74,12 @@ fn cornell_box_in_detail() {
     assert_eq!(s.integrator, MitsubaIntegrator::Path { max_depth: Some(6), rr_depth: 5, hide_emitters: false });
     assert_eq!(s.filter, PixelFilter::Gaussian { stddev: 0.5 });
     assert!(!s.camera_flip_x);
+    // The render defaults say so: Mitsuba's film filter, no image filter, emitters shown.
+    let r = &m.scene.render;
+    assert_eq!(
+        (r.pixel_filter, r.image_filter, r.hide_emitters),
+        (PixelFilter::Gaussian { stddev: 0.5 }, false, false)
+    );
     let c = &m.scene.camera;
     assert_eq!(c.position, Vec3::new(278.0, 273.0, -800.0));
     assert!((c.forward - Vec3::Z).length() < 1e-6 && (c.up - Vec3::Y).length() < 1e-6);
@@ -449,4 +455,34 @@ fn a_checkerboard_read_as_a_float_has_mitsubas_other_parity() {
     // Mitsuba uv (0.2, 0.2) (glint's v is 1 − v): both halves low.
     let at = |t: usize| m.scene.textures[t].evaluate(Vec2::new(0.2, 0.8)).x;
     assert_eq!((at(colour), at(float)), (0.05, 0.3));
+}
+
+#[test]
+fn hide_emitters_and_the_film_filter_reach_the_render_defaults() {
+    let dir = TempDir::new("mitsuba-hide");
+    let path = dir.join("s.xml");
+    let scene = |integrator: &str, rfilter: &str| {
+        format!(
+            r#"<scene version="3.0.0">{integrator}
+  <sensor type="perspective"><film type="hdrfilm">{rfilter}</film></sensor>
+  <shape type="sphere"/>
+</scene>"#
+        )
+    };
+    std::fs::write(
+        &path,
+        scene(
+            r#"<integrator type="path"><boolean name="hide_emitters" value="true"/></integrator>"#,
+            r#"<rfilter type="tent"/>"#,
+        ),
+    )
+    .expect("write");
+    let r = load(&path, &[], false).expect("loads").scene.render;
+    assert!(r.hide_emitters);
+    assert_eq!(r.pixel_filter, PixelFilter::Tent { radius: 1.0 });
+    // A filter wider than glint takes is an error at its element.
+    std::fs::write(&path, scene("", r#"<rfilter type="gaussian"><float name="stddev" value="50"/></rfilter>"#))
+        .expect("write");
+    let err = load(&path, &[], false).expect_err("too wide").to_string();
+    assert!(err.contains("s.xml:2") && err.contains("radius"), "{err}");
 }

@@ -43,6 +43,8 @@ pub struct PathParams {
     /// The frame is filtered (guides and lookups): the guide vertex keeps glint's split
     /// (light sampling alone for its direct light) even under Mitsuba's budget.
     pub filtered: bool,
+    /// Emitters and the sky seen directly from the camera add nothing (Mitsuba's `hide_emitters`).
+    pub hide_emitters: bool,
 }
 
 /// Scale `c` down so that its largest component is at most `limit`.
@@ -232,13 +234,17 @@ impl<'a> Integrator<'a> {
                 } else {
                     self.world.sky().radiance(ray.dir)
                 };
-                out.rest += throughput * sky;
+                if chain > 0 || !self.params.hide_emitters {
+                    out.rest += throughput * sky;
+                }
                 return out;
             };
             out.covered = true;
             depth = if chain == 0 { depth_of(hit.position) } else { depth + hit.t };
             let (bsdf, emission) = self.bsdf_at(&hit, ray.dir);
-            out.rest += throughput * emission;
+            if chain > 0 || !self.params.hide_emitters {
+                out.rest += throughput * emission;
+            }
             let bounces = match self.params.max_depth {
                 Some(l) if chain + 1 >= l => return out,
                 Some(l) => l - 2 - chain,

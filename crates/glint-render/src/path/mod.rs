@@ -33,7 +33,7 @@ use crate::stats::{BandStats, FrameStats};
 use crate::world::SurfaceHit;
 use crate::{RenderError, World};
 use glint_core::random::SampleStream;
-use glint_core::{Ray, Rgb, Vec2, Vec3};
+use glint_core::{PixelFilter, PixelSampler, Ray, Rgb, Vec2, Vec3};
 use glint_filter::Filter;
 use glint_scene::{Camera, limits};
 use integrator::{CameraSample, IndirectMode, Integrator, PathParams};
@@ -81,6 +81,12 @@ pub struct PathSettings {
     /// vertex, `max_chain` before it). The recursive kernel runs such frames (the wavefront
     /// kernel keeps glint's budgets).
     pub max_depth: Option<u32>,
+    /// The film's pixel filter: each sample's position is drawn from it (box: uniform in the
+    /// pixel). The first guide ray of a filtered frame still goes through the pixel centre.
+    pub pixel_filter: PixelFilter,
+    /// Emitters and the sky seen directly from the camera add nothing (Mitsuba's
+    /// `hide_emitters`); after a bounce, mirror and glass ones included, they are seen.
+    pub hide_emitters: bool,
 }
 
 /// How the path tracer runs its samples (the same estimator either way; BENCHMARKS.md §6
@@ -109,6 +115,8 @@ impl Default for PathSettings {
             filter_area_direct: true,
             kernel: PathKernel::default(),
             max_depth: None,
+            pixel_filter: PixelFilter::Box,
+            hide_emitters: false,
         }
     }
 }
@@ -136,6 +144,7 @@ impl PathSettings {
                 *limits::SPP.end() * 16
             )));
         }
+        self.pixel_filter.validate().map_err(RenderError::InvalidSetting)?;
         if let Some(t) = self.time_budget
             && t.is_zero()
         {
@@ -201,6 +210,11 @@ struct Frame {
     centre_cone: f32,
     forward: Vec3,
     width: usize,
+    /// Draws sample positions from the film's pixel filter.
+    pixel: PixelSampler,
+    /// The sample asked to go through the pixel centre does: always with a box filter, and
+    /// for the guide rays of a filtered frame; otherwise it is drawn from the pixel filter.
+    centre_first: bool,
 }
 
 impl Frame {
@@ -219,12 +233,15 @@ impl Frame {
                 filter_area_direct: path.filter_area_direct && path.filtered(),
                 max_depth: path.max_depth,
                 filtered: path.filtered(),
+                hide_emitters: path.hide_emitters,
             },
             seed: image.seed,
             schedule: image.schedule,
             centre_cone: 1.0 / (camera.focal_pixels * (path.spp as f32).sqrt()),
             forward: view.forward.normalize(),
             width: image.width as usize,
+            pixel: PixelSampler::new(path.pixel_filter),
+            centre_first: path.filtered() || path.pixel_filter == PixelFilter::Box,
         }
     }
 
@@ -250,7 +267,7 @@ impl Frame {
     fn camera_ray(&self, x: usize, y: usize, sample: u64, centre: bool) -> (Vec2, Ray, SampleStream) {
         let pixel = (y * self.width + x) as u64;
         let mut stream = SampleStream::new(pixel, sample, self.seed);
-        let offset = if centre { Vec2::splat(0.5) } else { stream.next_2d() };
+        let offset = if centre && self.centre_first { Vec2::splat(0.5) } else { self.pixel.position(stream.next_2d()) };
         let pos = Vec2::new(x as f32, y as f32) + offset;
         (pos, self.camera.ray(pos), stream)
     }

@@ -237,13 +237,17 @@ impl<'a> Wavefront<'a> {
             } else {
                 self.world.sky().radiance(path.ray.dir)
             };
-            sample.rest += leg.throughput * sky;
+            if leg.chain > 0 || !self.frame.params.hide_emitters {
+                sample.rest += leg.throughput * sky;
+            }
             return;
         };
         sample.covered = true;
         leg.depth = if leg.chain == 0 { self.frame.camera.depth(hit.position) } else { leg.depth + hit.t };
         let (bsdf, emission) = bsdf_at(self.world, &hit, path.ray.dir);
-        sample.rest += leg.throughput * emission;
+        if leg.chain > 0 || !self.frame.params.hide_emitters {
+            sample.rest += leg.throughput * emission;
+        }
         let mut stream = path.stream;
         let u_lobe = stream.next_1d();
         let u = stream.next_2d();

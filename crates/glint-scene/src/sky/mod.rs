@@ -58,6 +58,23 @@ impl SkyTransform {
         self.rotation.map(|r| r.0)
     }
 
+    /// This transform with `--sky-rotation`-style adjustments: `degrees` about +y (replacing a
+    /// plain turn; applied on the world side of a general rotation, which it keeps) and the
+    /// intensity scaled by `factor`. No adjustment leaves the transform as it is.
+    pub fn adjusted(&self, degrees: Option<f32>, factor: f32) -> Self {
+        let intensity = self.intensity * factor;
+        match (self.rotation, degrees) {
+            (None, _) => SkyTransform::new(degrees.unwrap_or(self.rotation_degrees), intensity),
+            (Some((m, w)), None) => Self { intensity, rotation: Some((m, w)), ..*self },
+            (Some((m, _)), Some(deg)) => {
+                let turn = SkyTransform::new(deg, 1.0);
+                let turn = Mat3::from_cols(turn.to_map(Vec3::X), turn.to_map(Vec3::Y), turn.to_map(Vec3::Z));
+                let m = m * turn;
+                Self { rotation_degrees: 0.0, intensity, cos: 1.0, sin: 0.0, rotation: Some((m, m.transpose())) }
+            }
+        }
+    }
+
     /// The map-space direction of world direction `d` (the inverse rotation).
     #[inline(always)]
     pub fn to_map(&self, d: Vec3) -> Vec3 {
@@ -176,6 +193,26 @@ mod tests {
         assert!((t.to_world(t.to_map(d)) - d).length() < 1e-5);
         assert!(SkyTransform::from_rotation(Mat3::from_diagonal(Vec3::new(-1.0, 1.0, 1.0)), 1.0).is_none());
         assert!(SkyTransform::from_rotation(Mat3::from_diagonal(Vec3::splat(2.0)), 1.0).is_none());
+    }
+
+    #[test]
+    fn adjusting_keeps_a_general_rotation() {
+        let m = Mat3::from_axis_angle(Vec3::new(1.0, 2.0, 3.0).normalize(), 0.7);
+        let t = SkyTransform::from_rotation(m, 3.0).expect("a rotation");
+        let d = Vec3::new(0.3, -0.5, 0.8).normalize();
+        // No flags: the same transform (the CLI once dropped the rotation here).
+        let same = t.adjusted(None, 1.0);
+        assert!((same.to_map(d) - m * d).length() < 1e-6);
+        assert_eq!(same.intensity, 3.0);
+        // A turn about +y is applied on the world side, then the file's rotation.
+        let turned = t.adjusted(Some(90.0), 0.5);
+        let plain = SkyTransform::new(90.0, 1.0);
+        assert!((turned.to_map(d) - m * plain.to_map(d)).length() < 1e-5);
+        assert!((turned.to_world(turned.to_map(d)) - d).length() < 1e-5);
+        assert_eq!(turned.intensity, 1.5);
+        // A plain transform: the rotation is replaced, as --sky-rotation always did.
+        let p = SkyTransform::new(30.0, 1.0).adjusted(Some(90.0), 2.0);
+        assert_eq!((p.rotation_degrees, p.intensity), (90.0, 2.0));
     }
 
     #[test]
