@@ -669,3 +669,57 @@ fn pixel_filters_weight_samples_by_their_profile() {
         }
     }
 }
+
+/// An emission texture scales the emitted radiance where it is read: a light quad textured
+/// with a checker (on / off by quarters) lights the floor as two quads covering just its lit
+/// quarters do (light sampling reads the texture at the sampled point, BSDF sampling at the
+/// hit), and the camera sees the pattern.
+#[test]
+fn an_emission_texture_lights_as_its_lit_parts() {
+    use glint_core::Vec2;
+    let quad = |x0: f32, x1: f32, z0: f32, z1: f32| glint_scene::Mesh {
+        name: "light".into(),
+        positions: vec![Vec3::new(x0, 2.0, z0), Vec3::new(x1, 2.0, z0), Vec3::new(x1, 2.0, z1), Vec3::new(x0, 2.0, z1)],
+        // Wound to face down (toward the floor).
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+        // u along x, v along z over the whole light (x, z in [−½, ½]).
+        uvs: Some(vec![
+            Vec2::new(x0 + 0.5, z0 + 0.5),
+            Vec2::new(x1 + 0.5, z0 + 0.5),
+            Vec2::new(x1 + 0.5, z1 + 0.5),
+            Vec2::new(x0 + 0.5, z1 + 0.5),
+        ]),
+        ..glint_scene::Mesh::default()
+    };
+    let scene = |meshes: Vec<glint_scene::Mesh>, textured: bool| Scene {
+        camera: Camera::look_at(Vec3::new(0.0, 1.0, 3.0), Vec3::ZERO, Vec3::Y, Fov::Vertical(50.0)),
+        sky: Sky::Colour(Rgb::ZERO),
+        materials: vec![
+            white_diffuse(0.8),
+            Material { emission: Rgb::splat(4.0), emission_texture: textured.then_some(0), ..white_diffuse(0.0) },
+        ],
+        textures: vec![glint_scene::Texture::Checker { size: 0.5, even: Rgb::ONE, odd: Rgb::ZERO }],
+        objects: std::iter::once(object(Shape::Plane { normal: Vec3::Y, offset: 0.0 }, 0))
+            .chain((0..meshes.len()).map(|i| object(Shape::Mesh(i), 1)))
+            .collect(),
+        meshes: meshes.into_iter().map(Arc::new).collect(),
+        ..Scene::default()
+    };
+    let textured = scene(vec![quad(-0.5, 0.5, -0.5, 0.5)], true);
+    let quarters = scene(vec![quad(-0.5, 0.0, -0.5, 0.0), quad(0.0, 0.5, 0.0, 0.5)], false);
+    for kernel in [PathKernel::Wavefront, PathKernel::Recursive] {
+        let p = PathSettings { kernel, ..path(64, 1, Filter::None) };
+        let (a, b) = (render(textured.clone(), 32, 24, &p), render(quarters.clone(), 32, 24, &p));
+        for (name, keep) in [("left", 0..16), ("right", 16..32)] {
+            let (ma, _, _) = mean_and_error(&a, |i| keep.contains(&(i % 32)));
+            let (mb, _, _) = mean_and_error(&b, |i| keep.contains(&(i % 32)));
+            assert!(mb > 0.01 && (ma - mb).abs() < 0.03 * mb, "{kernel:?} {name}: textured {ma} vs quarters {mb}");
+        }
+    }
+    // Seen from below, the light shows its pattern.
+    let mut below = textured;
+    below.camera = Camera::look_at(Vec3::new(0.0, 0.5, 0.0), Vec3::new(0.0, 2.0, 0.0), Vec3::Z, Fov::Vertical(20.0));
+    let film = render(below, 16, 16, &path(4, 0, Filter::None));
+    let (on, off) = (film.pixel(4, 4).colour.x, film.pixel(11, 4).colour.x);
+    assert!((on == 4.0 && off == 0.0) || (on == 0.0 && off == 4.0), "pattern: {on} / {off}");
+}

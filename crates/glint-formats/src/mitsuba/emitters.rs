@@ -52,13 +52,13 @@ impl<'a> Builder<'a> {
         }
     }
 
-    /// An `area` emitter on a shape: its radiance.
-    pub(super) fn area_emitter(&mut self, el: &'a Element) -> Result<Rgb, FormatError> {
+    /// An `area` emitter on a shape: its radiance, a colour or a texture over the shape's uvs.
+    pub(super) fn area_emitter(&mut self, el: &'a Element) -> Result<Tex<Rgb>, FormatError> {
         let p = self.props(el)?;
         if p.plugin != "area" {
             return Err(el.loc.error(format!("a shape's emitter must be 'area', not '{}'", p.plugin)));
         }
-        let radiance = self.emitted(&p, "radiance")?;
+        let radiance = self.rgb_tex(&p, "radiance", 1.0, Use::Emitter)?;
         self.finish(&p)?;
         Ok(radiance)
     }

@@ -32,7 +32,7 @@ pub use serialized::read_serialized;
 
 use crate::error::FormatError;
 use glint_core::Rgb;
-use glint_scene::{RenderMode, Scene};
+use glint_scene::{RenderMode, Scene, Tex};
 use props::{Ids, Props};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -255,12 +255,14 @@ impl<'a> Builder<'a> {
 
     /// A material for a shape: its BSDF in path mode, the nearest Phong parameters for the
     /// Whitted mode, and its area emission.
-    fn material(&mut self, name: String, bsdf: usize, emission: Option<Rgb>) -> usize {
+    fn material(&mut self, name: String, bsdf: usize, emission: Option<Tex<Rgb>>) -> usize {
         let mut m = bsdfs::phong(&self.scene, bsdf);
         m.name = name;
         m.bsdf = Some(bsdf);
-        if let Some(e) = emission {
-            m.emission = e;
+        match emission {
+            Some(Tex::Value(e)) => m.emission = e,
+            Some(Tex::Texture(t)) => (m.emission, m.emission_texture) = (Rgb::ONE, Some(t)),
+            None => {}
         }
         self.scene.materials.push(m);
         self.scene.materials.len() - 1

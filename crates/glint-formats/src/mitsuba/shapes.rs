@@ -201,7 +201,7 @@ impl<'a> Builder<'a> {
     }
 
     /// A shape's BSDF (Mitsuba's default: diffuse 0.5) and its area emitter's radiance.
-    fn shape_appearance(&mut self, p: &Props<'a>) -> Result<(usize, Option<Rgb>), FormatError> {
+    fn shape_appearance(&mut self, p: &Props<'a>) -> Result<(usize, Option<Tex<Rgb>>), FormatError> {
         let bsdfs = p.objects("bsdf");
         if bsdfs.len() > 1 {
             return Err(p.loc().error("a shape has one BSDF"));

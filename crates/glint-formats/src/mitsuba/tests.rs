@@ -486,3 +486,29 @@ fn hide_emitters_and_the_film_filter_reach_the_render_defaults() {
     let err = load(&path, &[], false).expect_err("too wide").to_string();
     assert!(err.contains("s.xml:2") && err.contains("radius"), "{err}");
 }
+
+#[test]
+fn a_textured_area_emitter_becomes_an_emission_texture() {
+    let dir = TempDir::new("mitsuba-area-tex");
+    let path = dir.join("s.xml");
+    std::fs::write(
+        &path,
+        r#"<scene version="3.0.0">
+  <shape type="rectangle">
+    <emitter type="area">
+      <texture type="checkerboard" name="radiance">
+        <rgb name="color0" value="2"/><rgb name="color1" value="0"/>
+      </texture>
+    </emitter>
+  </shape>
+</scene>"#,
+    )
+    .expect("write");
+    let m = load(&path, &[], false).expect("loads");
+    let mat = &m.scene.materials[m.scene.objects[0].material];
+    let t = mat.emission_texture.expect("an emission texture");
+    assert_eq!(mat.emission, Rgb::ONE);
+    // Mitsuba uv (0.1, 0.1): color0; glint's v is 1 − v.
+    assert_eq!(mat.emission_at(Vec2::new(0.1, 0.9), &m.scene.textures), Rgb::splat(2.0));
+    assert_eq!(m.scene.textures[t].evaluate(Vec2::new(0.6, 0.9)), Rgb::ZERO);
+}

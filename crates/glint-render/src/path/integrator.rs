@@ -140,7 +140,7 @@ fn orient(hit: &SurfaceHit, dir: Vec3) -> (bool, Vec3, Vec3, Vec3) {
 pub(super) fn bsdf_at(world: &World, hit: &SurfaceHit, dir: Vec3) -> (Bsdf, Rgb) {
     let m = world.material(hit.material);
     let (entering, ng, ns, wo) = orient(hit, dir);
-    let emitted = m.emitted(hit.geometric_normal, wo);
+    let emitted = world.emitted(hit, wo);
     // A physically based model when the material names one (Scene validation bounds its tree
     // to what a Mixture holds; should one not fit, the Phong reading stands in).
     if let Some(physical) = m.bsdf.and_then(|root| Physical::at(world, hit, dir, root)) {

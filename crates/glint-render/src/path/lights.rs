@@ -185,7 +185,8 @@ impl LightSet {
                 let mut shadow = hit.spawn_ray_to(target);
                 // Stop short of the light's own surface.
                 shadow.tmax *= 1.0 - 1e-4;
-                Some(LightSample { wi, shadow, weight: t.emission / pdf, pdf })
+                let emission = t.emission_at(world, b0, b1);
+                Some(LightSample { wi, shadow, weight: emission / pdf, pdf })
             }
             Entry::Sky => {
                 let sky = self.sky.as_ref()?;

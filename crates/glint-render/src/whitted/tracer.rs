@@ -141,7 +141,7 @@ impl Tracer {
         ng: Vec3,
         ns: Vec3,
     ) -> Rgb {
-        let mut c = m.emitted(hit.geometric_normal, wo) + world.ambient(ns) * albedo * m.ambient;
+        let mut c = world.emitted(hit, wo) + world.ambient(ns) * albedo * m.ambient;
         // Lights in groups: every shadow ray of a group is set up before any is traced, so the
         // (latency-bound) set-ups and traversals of different lights overlap; the group's
         // contributions are then added in light order, as one light at a time would.

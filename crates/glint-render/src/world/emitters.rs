@@ -3,7 +3,7 @@
 
 use super::World;
 use super::instances::InstanceShape;
-use glint_core::{Rgb, Vec3};
+use glint_core::{Rgb, Vec2, Vec3};
 
 /// A light-emitting triangle in world space.
 #[derive(Clone, Copy, Debug)]
@@ -16,6 +16,24 @@ pub struct EmissiveTriangle {
     pub emission: Rgb,
     /// Emits from both faces (else from the front only).
     pub two_sided: bool,
+    /// The emission texture (an index into `Scene::textures`) and the vertices' uvs, in the
+    /// order of `vertices`: the emitted radiance is `emission` times the texture there.
+    pub texture: Option<(usize, [Vec2; 3])>,
+}
+
+impl EmissiveTriangle {
+    /// The radiance emitted at barycentric coordinates (b0, b1) of `vertices` (toward a
+    /// direction it emits to).
+    #[inline]
+    pub fn emission_at(&self, world: &World, b0: f32, b1: f32) -> Rgb {
+        match &self.texture {
+            None => self.emission,
+            Some((t, [u0, u1, u2])) => {
+                let uv = *u0 * b0 + *u1 * b1 + *u2 * (1.0 - b0 - b1);
+                self.emission * world.scene.textures[*t].evaluate(uv)
+            }
+        }
+    }
 }
 
 impl World {
@@ -40,12 +58,20 @@ impl World {
                 // A mirroring transform turns the winding around; the hit's normal does not turn.
                 let mirrored = inst.world_from_object.matrix3.determinant() < 0.0;
                 let vertices = if mirrored { [a, c, b] } else { [a, b, c] };
+                let texture = m.emission_texture.map(|tex| {
+                    let [ua, ub, uc] = match &mesh.uvs {
+                        Some(uvs) => t.map(|i| uvs[i as usize]),
+                        None => [Vec2::ZERO; 3],
+                    };
+                    (tex, if mirrored { [ua, uc, ub] } else { [ua, ub, uc] })
+                });
                 out.push(EmissiveTriangle {
                     object: inst.object,
                     prim: prim as u32,
                     vertices,
                     emission: m.emission,
                     two_sided: m.two_sided,
+                    texture,
                 });
             }
         }

@@ -72,6 +72,20 @@ impl World {
         self.sky_irradiance.is_none().then_some(self.scene.ambient)
     }
 
+    /// The radiance a hit's surface emits toward `wo` (away from the surface): the material's
+    /// emission from the faces it emits from, times its emission texture (glTF's
+    /// emissiveTexture) at the hit's uv.
+    #[inline]
+    #[must_use]
+    pub fn emitted(&self, hit: &SurfaceHit, wo: Vec3) -> Rgb {
+        let m = self.material(hit.material);
+        let e = m.emitted(hit.geometric_normal, wo);
+        match m.emission_texture {
+            Some(t) if e != Rgb::ZERO => e * self.scene.textures[t].evaluate(hit.uv),
+            _ => e,
+        }
+    }
+
     /// The surface colour at a hit: material colour × texture.
     #[inline]
     #[must_use]
