@@ -11,6 +11,9 @@ pub enum SpotFalloff {
     /// Linear in the angle itself, `(outer − θ) / (outer − inner)`: Mitsuba 3's `spot`
     /// (`beam_width` is the inner cone, `cutoff_angle` the outer one).
     LinearAngle,
+    /// The square of a linear ramp in the cosine, from the outer cone (0) to the inner one (1):
+    /// glTF's KHR_lights_punctual recommended falloff ([`spot_falloff_gltf`]).
+    SquaredCosine,
 }
 
 /// How a positional light's intensity falls off with distance.
@@ -99,6 +102,7 @@ impl Light {
                 let cone = match curve {
                     SpotFalloff::Smoothstep => spot_falloff(cos, inner_deg, outer_deg),
                     SpotFalloff::LinearAngle => spot_falloff_linear(cos, inner_deg, outer_deg),
+                    SpotFalloff::SquaredCosine => spot_falloff_gltf(cos, inner_deg, outer_deg),
                 };
                 if cone <= 0.0 {
                     return None;
@@ -137,6 +141,14 @@ pub fn spot_falloff(cos_angle: f32, inner_deg: f32, outer_deg: f32) -> f32 {
     }
     let x = (cos_angle - cos_outer) / (cos_inner - cos_outer);
     x * x * (3.0 - 2.0 * x)
+}
+
+/// KHR_lights_punctual's recommended spot falloff:
+/// `saturate((cos − cos_outer) / max(0.001, cos_inner − cos_outer))²`.
+pub fn spot_falloff_gltf(cos_angle: f32, inner_deg: f32, outer_deg: f32) -> f32 {
+    let (cos_inner, cos_outer) = (inner_deg.to_radians().cos(), outer_deg.to_radians().cos());
+    let x = ((cos_angle - cos_outer) / (cos_inner - cos_outer).max(1e-3)).clamp(0.0, 1.0);
+    x * x
 }
 
 /// Mitsuba 3's spot profile: 1 inside `inner_deg`, `(outer − θ)/(outer − inner)` (θ the angle

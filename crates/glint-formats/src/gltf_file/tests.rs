@@ -301,17 +301,16 @@ fn hierarchy_places_camera_and_lights_in_world_space() {
     assert_close(position, Vec3::new(0.0, 0.0, -2.0), "spot position");
     assert_close(direction, -Vec3::X, "spot direction (not scaled)");
     assert!((intensity - 50.0 / PI).abs() < 1e-4);
-    // glTF's falloff, through glint's cone: full on the axis, nothing past the outer cone,
-    // glTF's value (within the fit) half way.
+    // glTF's falloff: full on the axis, nothing past the outer cone, glTF's value half way.
     let at = |deg: f32| {
         let p = position + (Quat::from_rotation_y(deg.to_radians()) * direction) * 3.0;
         scene.lights[2].sample_at(p).map_or(0.0, |s| s.radiance.x * 9.0 / intensity)
     };
     assert!((at(0.0) - 1.0).abs() < 1e-4);
     assert_eq!(at(0.6f32.to_degrees() + 1.0), 0.0);
-    let mid = lights::gltf_spot_falloff(0.4f32.cos(), 0.2f32.cos(), 0.6f32.cos());
+    let mid = ((0.4f32.cos() - 0.6f32.cos()) / (0.2f32.cos() - 0.6f32.cos())).powi(2);
     assert!(
-        (at(0.4f32.to_degrees()) - mid).abs() < 0.08,
+        (at(0.4f32.to_degrees()) - mid).abs() < 1e-4,
         "{} vs {mid} ({inner_deg}..{outer_deg})",
         at(0.4f32.to_degrees())
     );
