@@ -3,11 +3,28 @@
 
 use glint_core::{Ray, Vec2, Vec3};
 
-/// Field of view, in degrees, along one image axis.
+/// Field of view, in degrees, along one image axis (Mitsuba's `fov_axis` names them all): the
+/// axis is resolved against the image's aspect when rays are made, so a field of view keeps
+/// its meaning at any image size.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Fov {
     Vertical(f32),
     Horizontal(f32),
+    /// Along the shorter side of the image.
+    Smaller(f32),
+    /// Along the longer side of the image.
+    Larger(f32),
+    /// Along the image's diagonal.
+    Diagonal(f32),
+}
+
+impl Fov {
+    /// The angle in degrees, whichever the axis.
+    pub fn degrees(&self) -> f32 {
+        match *self {
+            Fov::Vertical(f) | Fov::Horizontal(f) | Fov::Smaller(f) | Fov::Larger(f) | Fov::Diagonal(f) => f,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -34,9 +51,13 @@ impl Camera {
 
     /// Tangent of half the vertical field of view for an image of the given aspect (w / h).
     pub fn tan_half_vertical(&self, aspect: f32) -> f32 {
+        let tan = (self.fov.degrees().to_radians() * 0.5).tan();
         match self.fov {
-            Fov::Vertical(deg) => (deg.to_radians() * 0.5).tan(),
-            Fov::Horizontal(deg) => (deg.to_radians() * 0.5).tan() / aspect,
+            Fov::Vertical(_) => tan,
+            Fov::Horizontal(_) => tan / aspect,
+            Fov::Smaller(_) => tan / aspect.min(1.0),
+            Fov::Larger(_) => tan / aspect.max(1.0),
+            Fov::Diagonal(_) => tan / (1.0 + aspect * aspect).sqrt(),
         }
     }
 
@@ -117,5 +138,22 @@ mod tests {
         let edge = rays.ray(Vec2::new(200.0, 50.0));
         // 45° to the right of forward at the right edge.
         assert!((edge.dir.x - edge.dir.z.abs()).abs() < 1e-5);
+    }
+
+    #[test]
+    fn every_fov_axis_resolves_against_the_aspect() {
+        let tan = (40f32.to_radians() * 0.5).tan();
+        let v = |fov: Fov, aspect: f32| Camera { fov, ..Camera::default() }.tan_half_vertical(aspect);
+        for aspect in [0.5f32, 1.0, 16.0 / 9.0] {
+            let (h, w) = (v(Fov::Vertical(40.0), aspect), v(Fov::Horizontal(40.0), aspect) * aspect);
+            assert!((h - tan).abs() < 1e-6 && (w - tan).abs() < 1e-6);
+            let smaller = v(Fov::Smaller(40.0), aspect);
+            let larger = v(Fov::Larger(40.0), aspect);
+            // The named side spans the angle: the shorter one for Smaller, the longer for Larger.
+            assert!((smaller * aspect.min(1.0) - tan).abs() < 1e-6, "{aspect}");
+            assert!((larger * aspect.max(1.0) - tan).abs() < 1e-6, "{aspect}");
+            let d = v(Fov::Diagonal(40.0), aspect);
+            assert!(((d * d + (d * aspect).powi(2)).sqrt() - tan).abs() < 1e-6, "{aspect}");
+        }
     }
 }

@@ -164,9 +164,7 @@ impl Scene {
         if c.forward.normalize().cross(c.up).length_squared() < 1e-12 {
             return Err(SceneError::invalid("camera", "up is parallel to the view direction"));
         }
-        let fov = match c.fov {
-            crate::Fov::Vertical(f) | crate::Fov::Horizontal(f) => f,
-        };
+        let fov = c.fov.degrees();
         if !(fov > 0.0 && fov < 180.0) {
             return Err(SceneError::invalid("camera", format!("field of view {fov}° must be in (0, 180)")));
         }

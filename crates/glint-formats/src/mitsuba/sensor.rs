@@ -103,7 +103,7 @@ impl<'a> Builder<'a> {
             self.finish(&s)?;
         }
         let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
-        let fov = self.x_fov(&p)?;
+        let fov = self.fov(&p)?;
         p.ignore(&[
             "near_clip",
             "far_clip",
@@ -126,21 +126,16 @@ impl<'a> Builder<'a> {
             ));
         }
         let forward = forward.try_normalize().ok_or_else(|| el.loc.error("sensor to_world maps +z to zero"))?;
-        self.scene.camera = Camera {
-            position: position.as_vec3(),
-            forward: forward.as_vec3(),
-            up: up.as_vec3(),
-            fov: Fov::Horizontal(fov as f32),
-        };
+        self.scene.camera = Camera { position: position.as_vec3(), forward: forward.as_vec3(), up: up.as_vec3(), fov };
         if Vec3::cross(self.scene.camera.forward, self.scene.camera.up).length_squared() < 1e-12 {
             return Err(el.loc.error("sensor to_world: up is parallel to the view direction"));
         }
         self.finish(&p)
     }
 
-    /// Mitsuba's `parse_fov` → the horizontal field of view in degrees.
-    fn x_fov(&mut self, p: &Props<'a>) -> Result<f64, FormatError> {
-        let aspect = f64::from(self.settings.width) / f64::from(self.settings.height);
+    /// Mitsuba's `parse_fov`: the field of view along its axis (resolved against the image's
+    /// aspect when rays are made, so `--width`/`--height` keep Mitsuba's framing).
+    fn fov(&mut self, p: &Props<'a>) -> Result<Fov, FormatError> {
         let (fov, axis) = match (p.float_opt("fov")?, p.string("focal_length")?) {
             (Some(_), Some(_)) => return Err(p.loc().error("give either fov or focal_length, not both")),
             (Some(f), None) => (f, p.string("fov_axis")?.unwrap_or("x")),
@@ -161,23 +156,17 @@ impl<'a> Builder<'a> {
         if !(fov > 0.0 && fov < 180.0) {
             return Err(p.loc().error(format!("fov = {fov}° must be in (0, 180)")));
         }
-        let half = (fov.to_radians() * 0.5).tan();
-        let x = match axis.to_ascii_lowercase().as_str() {
-            "x" => fov,
-            "y" => 2.0 * (half * aspect).atan().to_degrees(),
-            "smaller" if aspect > 1.0 => 2.0 * (half * aspect).atan().to_degrees(),
-            "smaller" => fov,
-            "larger" if aspect > 1.0 => fov,
-            "larger" => 2.0 * (half * aspect).atan().to_degrees(),
-            "diagonal" => {
-                let width = 2.0 * half / (1.0 + 1.0 / (aspect * aspect)).sqrt();
-                2.0 * (width * 0.5).atan().to_degrees()
-            }
+        let fov = fov as f32;
+        Ok(match axis.to_ascii_lowercase().as_str() {
+            "x" => Fov::Horizontal(fov),
+            "y" => Fov::Vertical(fov),
+            "smaller" => Fov::Smaller(fov),
+            "larger" => Fov::Larger(fov),
+            "diagonal" => Fov::Diagonal(fov),
             other => {
                 return Err(p.loc().error(format!("fov_axis '{other}' is none of x, y, smaller, larger, diagonal")));
             }
-        };
-        Ok(x)
+        })
     }
 
     fn film(&mut self, el: &'a Element) -> Result<(), FormatError> {

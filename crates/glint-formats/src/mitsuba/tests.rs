@@ -83,8 +83,8 @@ fn cornell_box_in_detail() {
     let c = &m.scene.camera;
     assert_eq!(c.position, Vec3::new(278.0, 273.0, -800.0));
     assert!((c.forward - Vec3::Z).length() < 1e-6 && (c.up - Vec3::Y).length() < 1e-6);
-    // fov_axis smaller on a square film: the x field of view as given.
-    assert!(matches!(c.fov, Fov::Horizontal(f) if (f - 39.3077).abs() < 1e-4), "{:?}", c.fov);
+    // fov_axis smaller: kept as the smaller axis (on this square film, x and y alike).
+    assert_eq!(c.fov, Fov::Smaller(39.3077));
     assert_eq!(m.scene.objects.len(), 8);
     assert_eq!((m.scene.render.width, m.scene.render.height), (256, 256));
     // Spectral reflectances and radiance as Mitsuba's RGB variant sees them (Mitsuba).
@@ -146,9 +146,13 @@ fn matpreview_in_detail() {
     let s = &m.settings;
     assert_eq!((s.width, s.height, s.spp), (683, 512, Some(64)));
     assert_eq!(s.integrator, MitsubaIntegrator::Path { max_depth: None, rr_depth: 5, hide_emitters: false });
-    // fov_axis smaller on a wide film is y: x fov = 2 atan(tan(fov/2) · aspect).
-    let want = 2.0 * ((28.8415f64.to_radians() / 2.0).tan() * 683.0 / 512.0).atan().to_degrees();
-    assert!(matches!(m.scene.camera.fov, Fov::Horizontal(f) if close(f, want, 1e-5)), "{:?}", m.scene.camera.fov);
+    // fov_axis smaller on a wide film is y: x fov = 2 atan(tan(fov/2) · aspect), and at any
+    // other size the smaller side keeps the 28.8415° (a tall image: its width).
+    let c = &m.scene.camera;
+    assert_eq!(c.fov, Fov::Smaller(28.8415));
+    let half = (28.8415f32.to_radians() / 2.0).tan();
+    assert!((c.tan_half_vertical(683.0 / 512.0) - half).abs() < 1e-6);
+    assert!((c.tan_half_vertical(0.5) * 0.5 - half).abs() < 1e-6);
     let tris: Vec<usize> = m
         .scene
         .objects
