@@ -99,6 +99,11 @@ pub struct RenderArgs {
     pub width: Option<u32>,
     #[arg(long)]
     pub height: Option<u32>,
+    /// Render only pixels x0..x1, y0..y1 of the frame (pbrt's --pixelbounds): the output is
+    /// that window, its pixels exactly the whole frame's (same rays, same random numbers);
+    /// a filter sees only the window. Overrides a Mitsuba film's crop.
+    #[arg(long, value_name = "X0,Y0,X1,Y1")]
+    pub crop: Option<String>,
     /// Samples per pixel. Whitted: a square number (N×N stratified supersampling): 1, 4, 9,
     /// 16, ...; path: any number (per pass with --time).
     #[arg(long)]

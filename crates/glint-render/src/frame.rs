@@ -231,6 +231,12 @@ impl Renderer {
                 _ => "this scene has only point clouds: the ray-tracing modes have nothing to trace".into(),
             }));
         }
+        if image.window.is_some() && mode.kind() == RenderMode::Points {
+            return Err(RenderError::InvalidSetting(
+                "a crop window: the points mode reconstructs the whole frame at once (pull-push), render it whole"
+                    .into(),
+            ));
+        }
         let start = Instant::now();
         // Until this frame is done, there is nothing to refine.
         (self.progressive, self.accumulated) = (false, 0);

@@ -25,6 +25,6 @@ pub use bands::{Hooks, Schedule};
 pub use error::RenderError;
 pub use film::{Film, FilmPixel};
 pub use frame::{Mode, ModeSettings, Picture, Renderer};
-pub use settings::{ImageSettings, WhittedKernel, WhittedSettings};
+pub use settings::{ImageSettings, WhittedKernel, WhittedSettings, Window};
 pub use stats::{BandStats, FrameStats, RayCounts};
 pub use world::{EmissiveTriangle, NO_PRIM, SurfaceHit, Surfaces8, World, WorldStats};

@@ -17,13 +17,56 @@ pub struct ImageSettings {
     /// The only source of randomness: every sample stream is `hash(pixel, sample, dim, seed)`.
     pub seed: u64,
     pub schedule: Schedule,
+    /// The part of a larger film this image is (a crop window: pbrt's `--pixelbounds`,
+    /// Mitsuba's film crop); None: the image is the whole film.
+    pub window: Option<Window>,
+}
+
+/// Where an image lies in its film: pixel (x, y) of the image is pixel (x0 + x, y0 + y) of a
+/// `full_width × full_height` film, traced through the same camera ray with the same random
+/// numbers, so a crop's pixels are the film's own, bit for bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Window {
+    pub full_width: u32,
+    pub full_height: u32,
+    pub x0: u32,
+    pub y0: u32,
 }
 
 impl ImageSettings {
+    /// The whole film's camera rays: image pixel (x, y) is traced at film position
+    /// [`ImageSettings::film_origin`] + (x, y) (integers added first, so a crop's rays are the
+    /// film's bit for bit).
+    #[must_use]
+    pub fn camera_rays(&self, camera: &glint_scene::Camera) -> glint_scene::camera::CameraRays {
+        match self.window {
+            None => camera.rays(self.width, self.height),
+            Some(w) => camera.rays(w.full_width, w.full_height),
+        }
+    }
+
+    /// The film pixel of image pixel (0, 0).
+    #[inline]
+    #[must_use]
+    pub fn film_origin(&self) -> (usize, usize) {
+        self.window.map_or((0, 0), |w| (w.x0 as usize, w.y0 as usize))
+    }
+
+    /// The film-wide index of image pixel (x, y): what every random stream of the pixel is
+    /// hashed from.
+    #[inline]
+    #[must_use]
+    pub fn pixel_id(&self, x: usize, y: usize) -> u64 {
+        match self.window {
+            None => (y * self.width as usize + x) as u64,
+            Some(w) => (y as u64 + u64::from(w.y0)) * u64::from(w.full_width) + x as u64 + u64::from(w.x0),
+        }
+    }
+
     /// A `width × height` image, seed 0, work stealing.
     #[must_use]
     pub fn new(width: u32, height: u32) -> Self {
-        Self { width, height, seed: 0, schedule: Schedule::WorkStealing }
+        Self { width, height, seed: 0, schedule: Schedule::WorkStealing, window: None }
     }
 
     /// # Errors
@@ -33,6 +76,16 @@ impl ImageSettings {
             return Err(RenderError::InvalidSetting(format!(
                 "image size {}x{} (each side must be 1..={MAX_IMAGE_SIDE}, at most 2^27 pixels in all)",
                 self.width, self.height
+            )));
+        }
+        if let Some(w) = self.window
+            && (!image_size_ok(w.full_width, w.full_height)
+                || u64::from(w.x0) + u64::from(self.width) > u64::from(w.full_width)
+                || u64::from(w.y0) + u64::from(self.height) > u64::from(w.full_height))
+        {
+            return Err(RenderError::InvalidSetting(format!(
+                "crop window {}x{} at ({}, {}) is not inside the {}x{} film",
+                self.width, self.height, w.x0, w.y0, w.full_width, w.full_height
             )));
         }
         Ok(())

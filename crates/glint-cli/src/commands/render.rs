@@ -10,7 +10,7 @@ use glint_formats::points::ColourBy;
 use glint_formats::sky::{FaceTransform, SkyLoadOptions, SkySource, load_sky};
 use glint_image::PngOptions;
 use glint_render::path::PathSettings;
-use glint_render::{Film, Hooks, ImageSettings, Mode, ModeSettings, Renderer};
+use glint_render::{Film, Hooks, ImageSettings, Mode, ModeSettings, Renderer, Window};
 use glint_scene::{Camera, Fov, RenderMode, Scene, Sky};
 use std::path::Path;
 use std::time::Duration;
@@ -215,9 +215,37 @@ fn path_settings(args: &RenderArgs, path: PathSettings, width: u32, scene: &Scen
     })
 }
 
+/// `--crop X0,Y0,X1,Y1` → x0, y0, width, height, inside a `w × h` frame.
+fn parse_crop(text: &str, w: u32, h: u32) -> Result<[u32; 4]> {
+    let v: Vec<u32> = text.split(',').map(|s| s.trim().parse::<u32>()).collect::<Result<_, _>>().map_err(|_| {
+        anyhow::anyhow!("--crop {text:?}: expected four whole numbers of pixels x0,y0,x1,y1 (e.g. 0,0,64,64)")
+    })?;
+    let &[x0, y0, x1, y1] = v.as_slice() else {
+        bail!("--crop {text:?}: expected four numbers x0,y0,x1,y1, got {}", v.len());
+    };
+    if !(x0 < x1 && y0 < y1 && x1 <= w && y1 <= h) {
+        bail!(
+            "--crop {x0},{y0},{x1},{y1}: must be a non-empty window inside the {w}x{h} frame (x0 < x1 <= {w}, y0 < y1 <= {h})"
+        );
+    }
+    Ok([x0, y0, x1 - x0, y1 - y0])
+}
+
 /// The image and the mode the options describe, over the scene's own settings.
 fn frame_settings(args: &RenderArgs, scene: &Scene) -> Result<(ImageSettings, Mode)> {
-    let image = ImageSettings { seed: args.seed, ..ImageSettings::new(scene.render.width, scene.render.height) };
+    let (w, h) = (scene.render.width, scene.render.height);
+    let crop = match &args.crop {
+        Some(text) => Some(parse_crop(text, w, h)?),
+        None => scene.render.crop,
+    };
+    let image = match crop {
+        Some([x0, y0, cw, ch]) => ImageSettings {
+            seed: args.seed,
+            window: Some(Window { full_width: w, full_height: h, x0, y0 }),
+            ..ImageSettings::new(cw, ch)
+        },
+        None => ImageSettings { seed: args.seed, ..ImageSettings::new(w, h) },
+    };
     let mut modes = ModeSettings::from_defaults(&scene.render);
     modes.path = path_settings(args, modes.path, image.width, scene)?;
     modes.points = points::point_settings(&args.points, &image)?;

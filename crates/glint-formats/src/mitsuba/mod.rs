@@ -137,6 +137,7 @@ fn apply_integrator(render: &mut glint_scene::RenderDefaults, settings: &Mitsuba
     render.spp = settings.spp;
     render.image_filter = false;
     render.pixel_filter = settings.filter;
+    render.crop = settings.crop;
     render.hide_emitters = match settings.integrator {
         MitsubaIntegrator::Path { hide_emitters, .. } | MitsubaIntegrator::Direct { hide_emitters, .. } => {
             hide_emitters

@@ -212,6 +212,8 @@ struct Frame {
     width: usize,
     /// Draws sample positions from the film's pixel filter.
     pixel: PixelSampler,
+    /// The image's place in its film (pixel ids and camera positions are the film's).
+    image: ImageSettings,
     /// The sample asked to go through the pixel centre does: always with a box filter, and
     /// for the guide rays of a filtered frame; otherwise it is drawn from the pixel filter.
     centre_first: bool,
@@ -221,7 +223,7 @@ impl Frame {
     /// The shared state of a pass over the world's scene seen by its camera. The diffuse
     /// direct light of area lights and the sky joins the filtered part only when a filter runs.
     fn new(world: &World, view: &Camera, image: &ImageSettings, path: &PathSettings) -> Frame {
-        let camera = view.rays(image.width, image.height);
+        let camera = image.camera_rays(view);
         Frame {
             lights: LightSet::new(world),
             camera,
@@ -241,6 +243,7 @@ impl Frame {
             forward: view.forward.normalize(),
             width: image.width as usize,
             pixel: PixelSampler::new(path.pixel_filter),
+            image: *image,
             centre_first: path.filtered() || path.pixel_filter == PixelFilter::Box,
         }
     }
@@ -265,11 +268,14 @@ impl Frame {
     /// stream after the jitter (see [`Frame::sample`]).
     #[inline]
     fn camera_ray(&self, x: usize, y: usize, sample: u64, centre: bool) -> (Vec2, Ray, SampleStream) {
-        let pixel = (y * self.width + x) as u64;
-        let mut stream = SampleStream::new(pixel, sample, self.seed);
+        let mut stream = SampleStream::new(self.image.pixel_id(x, y), sample, self.seed);
         let offset = if centre && self.centre_first { Vec2::splat(0.5) } else { self.pixel.position(stream.next_2d()) };
         let pos = Vec2::new(x as f32, y as f32) + offset;
-        (pos, self.camera.ray(pos), stream)
+        let ray = match self.image.film_origin() {
+            (0, 0) => self.camera.ray(pos),
+            (fx, fy) => self.camera.ray(Vec2::new((fx + x) as f32, (fy + y) as f32) + offset),
+        };
+        (pos, ray, stream)
     }
 
     /// The rest of [`Frame::sample`] given the camera ray's closest hit `first`.

@@ -121,6 +121,52 @@ impl Stream {
         }
     }
 
+    /// Append two sets of spawned rays (a batch's reflections and refractions) lane by lane:
+    /// lane i's ray of the first set, then its ray of the second, then lane i + 1's. So the
+    /// rays of one sample keep the order of their parents whatever batch the parents were in,
+    /// and every sample's sums add up in the same order however the tile is cut into batches
+    /// (a crop window's pixels are the whole frame's, bit for bit). One empty set: the
+    /// ordinary, faster append.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn push_pairs<I: Isa>(
+        &mut self,
+        first: M8<I>,
+        second: M8<I>,
+        [o1, d1, w1]: [V8<I>; 3],
+        [o2, d2, w2]: [V8<I>; 3],
+        width: F8<I>,
+        [s1, s2]: [F8<I>; 2],
+        sample: U8x<I>,
+    ) {
+        if !first.any() {
+            return self.push_lanes(second, o2, d2, w2, width, s2, sample);
+        }
+        let (a, b) = (first.bits(), second.bits());
+        let needed = (self.len + (a.count_ones() + b.count_ones()) as usize).div_ceil(LANES);
+        if self.blocks.len() < needed {
+            self.blocks.resize(needed, Block::default());
+        }
+        let sets = [
+            (a, store3(o1), store3(d1), store3(w1), s1.to_array()),
+            (b, store3(o2), store3(d2), store3(w2), s2.to_array()),
+        ];
+        let (wd, sa) = (width.to_array(), sample.to_array());
+        for i in 0..LANES {
+            for (bits, o, d, w, sp) in &sets {
+                if bits >> i & 1 != 0 {
+                    let (k, j) = (self.len / LANES, self.len % LANES);
+                    let blk = &mut self.blocks[k];
+                    for c in 0..3 {
+                        (blk.origin[c][j], blk.dir[c][j], blk.weight[c][j]) = (o[c][i], d[c][i], w[c][i]);
+                    }
+                    (blk.width[j], blk.spread[j], blk.sample[j]) = (wd[i], sp[i], sa[i]);
+                    self.len += 1;
+                }
+            }
+        }
+    }
+
     /// Rays `start..start + 8` (`start` a multiple of 8; the lanes past the end inactive).
     #[inline(always)]
     fn batch<I: Isa>(&self, start: usize) -> (Rays8<I>, Lanes<I>, M8<I>) {
@@ -193,6 +239,8 @@ pub(super) struct Frame<'a> {
     pub forward: Vec3,
     pub width: usize,
     pub seed: u64,
+    /// The image's place in its film (pixel ids and camera positions are the film's).
+    pub image: ImageSettings,
 }
 
 impl<'a> Frame<'a> {
@@ -203,7 +251,7 @@ impl<'a> Frame<'a> {
         settings: &WhittedSettings,
         samples: Samples,
     ) -> Self {
-        let rays = camera.rays(image.width, image.height);
+        let rays = image.camera_rays(camera);
         let scene = world.scene();
         Frame {
             shading: Shading {
@@ -222,6 +270,7 @@ impl<'a> Frame<'a> {
             forward: camera.forward.normalize(),
             width: image.width as usize,
             seed: image.seed,
+            image: *image,
         }
     }
 }
@@ -283,17 +332,24 @@ fn render_tile<I: Isa>(
             }
             let surf = s.world.intersect_batch(&rays, active);
             let miss = active.and_not(surf.hit);
-            if miss.any() {
-                let seen = lanes.weight * sky8(sky, rays.dir, lanes.spread, miss);
-                for i in 0..LANES {
-                    if miss.lane(i) {
-                        sums.add(lanes.sample[i] as usize, seen.lane(i));
-                    }
-                }
-            }
             let hit = active & surf.hit;
-            if hit.any() {
-                counts.shadow += shade(s, &rays, &lanes, &surf, hit, depth, sums, next);
+            let seen =
+                if miss.any() { lanes.weight * sky8(sky, rays.dir, lanes.spread, miss) } else { V8::splat1(0.0) };
+            let shaded = if hit.any() {
+                let (shadows, shaded) = shade(s, &rays, &lanes, &surf, hit, depth, sums, next);
+                counts.shadow += shadows;
+                shaded
+            } else {
+                V8::splat1(0.0)
+            };
+            // In lane (= stream) order, misses and hits alike: a sample's sum then adds up in
+            // the same order wherever the batches begin (see `Stream::push_pairs`).
+            for i in 0..LANES {
+                if miss.lane(i) {
+                    sums.add(lanes.sample[i] as usize, seen.lane(i));
+                } else if hit.lane(i) {
+                    sums.add(lanes.sample[i] as usize, shaded.lane(i));
+                }
             }
         }
         std::mem::swap(current, next);
@@ -313,6 +369,8 @@ fn primary_stream<I: Isa>(frame: &Frame, x0: usize, y0: usize, tile_w: usize, ti
     let forward = V8::splat(frame.forward);
     // CameraRays::ray across lanes: the same operations, so the same directions.
     let (top_left, right, down) = frame.rays.image_plane();
+    // Film position of the image's pixel (0, 0) (whole numbers: sums stay exact).
+    let (film_x, film_y) = (frame.image.film_origin().0 as f32, frame.image.film_origin().1 as f32);
     let (top_left, right, down) = (V8::splat(top_left), V8::splat(right), V8::splat(down));
     for s in 0..n * n {
         for by in (0..tile_h).step_by(2) {
@@ -326,8 +384,8 @@ fn primary_stream<I: Isa>(frame: &Frame, x0: usize, y0: usize, tile_w: usize, ti
                         continue;
                     }
                     let (x, y) = (x0 + tx, y0 + ty);
-                    let offset = sample_offset(frame, (y * frame.width + x) as u64, s);
-                    (px[i], py[i]) = (x as f32 + offset.x, y as f32 + offset.y);
+                    let offset = sample_offset(frame, frame.image.pixel_id(x, y), s);
+                    (px[i], py[i]) = (film_x + x as f32 + offset.x, film_y + y as f32 + offset.y);
                     sample[i] = (s as usize * pixels + ty * tile_w + tx) as u32;
                     live |= 1 << i;
                 }

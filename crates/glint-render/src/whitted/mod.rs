@@ -65,7 +65,8 @@ pub fn render(
     let start = Instant::now();
     let w = image.width as usize;
     film.reset(image.width, image.height);
-    let rays = camera.rays(image.width, image.height);
+    let rays = image.camera_rays(camera);
+    let (film_x, film_y) = image.film_origin();
     // Ray footprints for sky filtering: a sample's angular width at the image centre (a
     // pixel's over the samples per side), shrinking off-axis as cos^1.5 (a pinhole pixel
     // subtends cos³ of the centre's solid angle). Reflected and refracted rays keep their
@@ -85,7 +86,7 @@ pub fn render(
             for row in 0..rows {
                 let y = y0 + row;
                 for x in bx..(bx + BLOCK_COLS).min(w) {
-                    let pixel_index = (y * w + x) as u64;
+                    let pixel_index = image.pixel_id(x, y);
                     let mut acc = PixelAccumulator::default();
                     for s in 0..n * n {
                         let offset = match samples {
@@ -97,7 +98,7 @@ pub fn render(
                             }
                             Samples::Pass(k) => SampleStream::new(pixel_index, k as u64, image.seed).next_2d(),
                         };
-                        let ray = rays.ray(Vec2::new(x as f32, y as f32) + offset);
+                        let ray = rays.ray(Vec2::new((film_x + x) as f32, (film_y + y) as f32) + offset);
                         let cos = ray.dir.dot(forward);
                         let (c, first) = tracer.trace(world, ray, centre_cone * cos * cos.sqrt(), &settings);
                         if c.is_finite() {

@@ -25,7 +25,7 @@ pub struct Settings {
 
 impl Settings {
     pub fn image(&self) -> ImageSettings {
-        ImageSettings { width: self.width, height: self.height, seed: self.seed, schedule: self.schedule }
+        ImageSettings { width: self.width, height: self.height, seed: self.seed, schedule: self.schedule, window: None }
     }
 
     pub fn whitted(&self) -> WhittedSettings {
