@@ -322,13 +322,17 @@ impl Renderer {
                 let mut stats = render_path(world, camera, image, settings, hooks, &mut self.film)?;
                 let trace = stats.stage("trace").unwrap_or_default();
                 stats.summary = format!(
-                    "path {}x{} at {} spp ({} pass{}, {} bounces, filter {}) in {:.3} s ({:.2} M paths/s; trace {:.3} s at {:.1} Mrays/s, filter {:.1} ms, {}), {} NaN/inf samples dropped",
+                    "path {}x{} at {} spp ({} pass{}, {}, filter {}) in {:.3} s ({:.2} M paths/s; trace {:.3} s at {:.1} Mrays/s, filter {:.1} ms, {}), {} NaN/inf samples dropped",
                     image.width,
                     image.height,
                     stats.samples_per_pixel,
                     stats.passes,
                     if stats.passes == 1 { "" } else { "es" },
-                    settings.max_bounces,
+                    // Mitsuba's total vertex budget when the scene gave one, else glint's.
+                    match settings.max_depth {
+                        Some(d) => format!("max depth {d}"),
+                        None => format!("{} bounces", settings.max_bounces),
+                    },
                     settings.filter,
                     stats.elapsed.as_secs_f64(),
                     stats.mpaths_per_second(),
