@@ -28,7 +28,7 @@ use glint_core::{Rgb, Vec2, Vec3};
 use glint_scene::{Camera, CameraRays};
 
 /// Tile width in pixels (a tile is one band of rows high).
-const TILE_W: usize = 16;
+pub(super) const TILE_W: usize = 16;
 
 /// The per-lane state of a batch of rays beside the rays themselves.
 pub(super) struct Lanes<I: Isa> {
@@ -117,52 +117,6 @@ impl Stream {
                 }
                 (b.width[j], b.spread[j], b.sample[j]) = (wd[i], sp[i], sa[i]);
                 self.len += 1;
-            }
-        }
-    }
-
-    /// Append two sets of spawned rays (a batch's reflections and refractions) lane by lane:
-    /// lane i's ray of the first set, then its ray of the second, then lane i + 1's. So the
-    /// rays of one sample keep the order of their parents whatever batch the parents were in,
-    /// and every sample's sums add up in the same order however the tile is cut into batches
-    /// (a crop window's pixels are the whole frame's, bit for bit). One empty set: the
-    /// ordinary, faster append.
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn push_pairs<I: Isa>(
-        &mut self,
-        first: M8<I>,
-        second: M8<I>,
-        [o1, d1, w1]: [V8<I>; 3],
-        [o2, d2, w2]: [V8<I>; 3],
-        width: F8<I>,
-        [s1, s2]: [F8<I>; 2],
-        sample: U8x<I>,
-    ) {
-        if !first.any() {
-            return self.push_lanes(second, o2, d2, w2, width, s2, sample);
-        }
-        let (a, b) = (first.bits(), second.bits());
-        let needed = (self.len + (a.count_ones() + b.count_ones()) as usize).div_ceil(LANES);
-        if self.blocks.len() < needed {
-            self.blocks.resize(needed, Block::default());
-        }
-        let sets = [
-            (a, store3(o1), store3(d1), store3(w1), s1.to_array()),
-            (b, store3(o2), store3(d2), store3(w2), s2.to_array()),
-        ];
-        let (wd, sa) = (width.to_array(), sample.to_array());
-        for i in 0..LANES {
-            for (bits, o, d, w, sp) in &sets {
-                if bits >> i & 1 != 0 {
-                    let (k, j) = (self.len / LANES, self.len % LANES);
-                    let blk = &mut self.blocks[k];
-                    for c in 0..3 {
-                        (blk.origin[c][j], blk.dir[c][j], blk.weight[c][j]) = (o[c][i], d[c][i], w[c][i]);
-                    }
-                    (blk.width[j], blk.spread[j], blk.sample[j]) = (wd[i], sp[i], sa[i]);
-                    self.len += 1;
-                }
             }
         }
     }
@@ -332,24 +286,17 @@ fn render_tile<I: Isa>(
             }
             let surf = s.world.intersect_batch(&rays, active);
             let miss = active.and_not(surf.hit);
-            let hit = active & surf.hit;
-            let seen =
-                if miss.any() { lanes.weight * sky8(sky, rays.dir, lanes.spread, miss) } else { V8::splat1(0.0) };
-            let shaded = if hit.any() {
-                let (shadows, shaded) = shade(s, &rays, &lanes, &surf, hit, depth, sums, next);
-                counts.shadow += shadows;
-                shaded
-            } else {
-                V8::splat1(0.0)
-            };
-            // In lane (= stream) order, misses and hits alike: a sample's sum then adds up in
-            // the same order wherever the batches begin (see `Stream::push_pairs`).
-            for i in 0..LANES {
-                if miss.lane(i) {
-                    sums.add(lanes.sample[i] as usize, seen.lane(i));
-                } else if hit.lane(i) {
-                    sums.add(lanes.sample[i] as usize, shaded.lane(i));
+            if miss.any() {
+                let seen = lanes.weight * sky8(sky, rays.dir, lanes.spread, miss);
+                for i in 0..LANES {
+                    if miss.lane(i) {
+                        sums.add(lanes.sample[i] as usize, seen.lane(i));
+                    }
                 }
+            }
+            let hit = active & surf.hit;
+            if hit.any() {
+                counts.shadow += shade(s, &rays, &lanes, &surf, hit, depth, sums, next);
             }
         }
         std::mem::swap(current, next);

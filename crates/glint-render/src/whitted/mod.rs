@@ -62,6 +62,11 @@ pub fn render(
         Samples::Pass(_) => WhittedSettings { samples_per_side: 1, ..*settings },
     };
     settings.validate()?;
+    if settings.kernel != WhittedKernel::Scalar
+        && let Some(aligned) = aligned_window(image)
+    {
+        return render_window(world, camera, image, &aligned, &settings, samples, hooks, film);
+    }
     let start = Instant::now();
     let w = image.width as usize;
     film.reset(image.width, image.height);
@@ -145,6 +150,53 @@ pub fn render(
         samples_per_pixel: n * n,
         ..FrameStats::default()
     })
+}
+
+/// The batched kernel's tiles (16 × 8 pixels) and the order of a tile's streams depend on
+/// where the image starts, and a sample's contributions are added in stream order: a crop
+/// window whose edges do not fall on the film's tile grid would differ from the whole frame
+/// by an ulp here and there. The window grown to the grid (None: it is on it) renders the
+/// film's own tiles; [`render_window`] cuts the window out of it.
+fn aligned_window(image: &ImageSettings) -> Option<ImageSettings> {
+    let w = image.window?;
+    let (x0, y0) = (w.x0 as usize, w.y0 as usize);
+    let (x1, y1) = (x0 + image.width as usize, y0 + image.height as usize);
+    let (ax0, ay0) = (x0 - x0 % batch::TILE_W, y0 - y0 % BAND_ROWS);
+    let ax1 = x1.next_multiple_of(batch::TILE_W).min(w.full_width as usize);
+    let ay1 = y1.next_multiple_of(BAND_ROWS).min(w.full_height as usize);
+    if (ax0, ay0, ax1, ay1) == (x0, y0, x1, y1) {
+        return None;
+    }
+    Some(ImageSettings {
+        width: (ax1 - ax0) as u32,
+        height: (ay1 - ay0) as u32,
+        window: Some(crate::Window { x0: ax0 as u32, y0: ay0 as u32, ..w }),
+        ..*image
+    })
+}
+
+/// Render `aligned` (the window grown to the tile grid) and keep `image`'s pixels of it.
+#[allow(clippy::too_many_arguments)]
+fn render_window(
+    world: &World,
+    camera: &Camera,
+    image: &ImageSettings,
+    aligned: &ImageSettings,
+    settings: &WhittedSettings,
+    samples: Samples,
+    hooks: &Hooks,
+    film: &mut Film,
+) -> Result<FrameStats, RenderError> {
+    let mut grown = Film::new(aligned.width, aligned.height);
+    let stats = render(world, camera, aligned, settings, samples, hooks, &mut grown)?;
+    let (dx, dy) = (image.film_origin().0 - aligned.film_origin().0, image.film_origin().1 - aligned.film_origin().1);
+    let (w, gw) = (image.width as usize, aligned.width as usize);
+    film.reset(image.width, image.height);
+    for (y, row) in film.pixels.chunks_mut(w).enumerate() {
+        let start = (y + dy) * gw + dx;
+        row.copy_from_slice(&grown.pixels[start..start + w]);
+    }
+    Ok(stats)
 }
 
 #[derive(Default)]

@@ -288,10 +288,9 @@ pub(super) fn sky8<I: Isa>(sky: &Sky, dir: V8<I>, spread: F8<I>, lanes: M8<I>) -
     }
 }
 
-/// Shade the hit lanes of one batch: push the reflected and refracted rays that pass the
-/// depth limit and the contribution threshold onto `next`. Returns the shadow rays traced and
-/// each hit lane's `weight × (local light)`, which the caller adds to the lane's sample (with
-/// the misses' sky, in lane order).
+/// Shade the hit lanes of one batch: add `weight × (local light)` to each lane's sample, and
+/// push the reflected and refracted rays that pass the depth limit and the contribution
+/// threshold onto `next`. Returns the shadow rays traced.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(super) fn shade<I: Isa>(
@@ -303,7 +302,7 @@ pub(super) fn shade<I: Isa>(
     depth: u32,
     sums: &mut TileSums,
     next: &mut Stream,
-) -> (u64, V8<I>) {
+) -> u64 {
     let m = Materials8::gather(&s.materials, surf.material, lanes);
     let albedo = albedo(s, &m, surf);
     let wo = -rays.dir;
@@ -341,8 +340,13 @@ pub(super) fn shade<I: Isa>(
     let weighted = b.weight * local;
     let contribution =
         V8::select(schlick, weighted * (V8::splat1(1.0) - f), weighted.scale(F8::one() - m.transparency));
+    for i in 0..LANES {
+        if lanes.lane(i) {
+            sums.add(b.sample[i] as usize, contribution.lane(i));
+        }
+    }
     if !deeper {
-        return (shadows, contribution);
+        return shadows;
     }
     let min = F8::splat(s.min_contribution);
     // Schlick reflection.
@@ -375,17 +379,16 @@ pub(super) fn shade<I: Isa>(
     let refr_spread = (b.spread * eta_i / eta_t - (eta_t - eta_i) / eta_t * curvature * width).abs();
 
     let reflected = push | push_refl;
-    let reflection = || [origins.toward(reflect_dir), reflect_dir, V8::select(push, w, w_refl)];
-    if push_refr.any() {
-        // Lane by lane, so each sample's rays keep their order (see `Stream::push_pairs`).
-        let refraction = [origins.toward(refract_dir), refract_dir, w_refr];
-        let spreads = [reflected_spread, refr_spread];
-        next.push_pairs(reflected, push_refr, reflection(), refraction, width, spreads, b.sample);
-    } else if reflected.any() {
-        let [origin, dir, weight] = reflection();
-        next.push_lanes(reflected, origin, dir, weight, width, reflected_spread, b.sample);
+    if reflected.any() {
+        let origin = origins.toward(reflect_dir);
+        let weight = V8::select(push, w, w_refl);
+        next.push_lanes(reflected, origin, reflect_dir, weight, width, reflected_spread, b.sample);
     }
-    (shadows, contribution)
+    if push_refr.any() {
+        let origin = origins.toward(refract_dir);
+        next.push_lanes(push_refr, origin, refract_dir, w_refr, width, refr_spread, b.sample);
+    }
+    shadows
 }
 
 /// Exact unpolarised dielectric Fresnel reflectance per lane (`optics::fresnel_dielectric`).
