@@ -18,6 +18,7 @@
 #![forbid(unsafe_code)]
 
 pub mod error;
+pub mod files;
 mod gltf_file;
 pub mod mitsuba;
 mod model;
@@ -28,7 +29,8 @@ mod scene_toml;
 pub mod sky;
 mod texture_file;
 
-pub use error::FormatError;
+pub use error::{FormatError, printable};
+pub use files::FilePolicy;
 pub use gltf_file::{GltfOptions, load_gltf};
 pub use model::{Model, default_camera, load_model, scene_for_cloud, scene_for_model};
 pub use sky::{
@@ -75,7 +77,7 @@ pub fn load_with(path: &Path, points: &points::PointReadOptions) -> Result<Loade
         return Ok(Loaded { scene: m.scene, warnings: m.warnings });
     }
     if ext.eq_ignore_ascii_case("toml") {
-        let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
+        let text = files::read_text(path, None, "a TOML scene")?;
         let base_dir = path.parent().unwrap_or(Path::new(""));
         return scene_toml::load_scene_text(&text, base_dir, path);
     }

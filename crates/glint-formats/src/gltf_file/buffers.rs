@@ -67,10 +67,11 @@ fn read_uri(path: &Path, base: &Path, uri: &str, place: &str) -> Result<UriData,
         return Err(FormatError::malformed(path, place, format!("unsupported URI scheme in `{uri}`")));
     }
     let file = base.join(percent_decode(relative));
-    match std::fs::read(&file) {
+    let field = format!("{place}.uri");
+    match crate::files::read(&file, Some(crate::files::Referrer::new(path, &field))) {
         Ok(bytes) => Ok(UriData::Bytes(bytes)),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(UriData::Missing(file)),
-        Err(e) => Err(FormatError::io(file, e)),
+        Err(FormatError::MissingFile { .. }) => Ok(UriData::Missing(file)),
+        Err(e) => Err(e),
     }
 }
 

@@ -84,7 +84,7 @@ struct GltfScene {
 /// [`read`], with the `gltf` crate's panics turned into errors, and zero-area triangles
 /// dropped.
 fn read_guarded(path: &Path) -> Result<GltfScene, FormatError> {
-    let data = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let data = crate::files::read_sniffed(path, None, sniff_gltf)?;
     // The gltf crate trusts its validation in a few `unwrap`s; a file that slips past it must
     // still be an error, not a crash.
     let result = std::panic::catch_unwind(|| read(path, &data));
@@ -93,6 +93,18 @@ fn read_guarded(path: &Path) -> Result<GltfScene, FormatError> {
     })?;
     model::finish_meshes(path, &mut scene.model.meshes, &mut scene.model.warnings)?;
     Ok(scene)
+}
+
+/// A .glb starts with `glTF`; a .gltf is JSON, an object (after an optional byte-order mark
+/// and white space).
+fn sniff_gltf(head: &[u8]) -> Result<(), String> {
+    let text = head.strip_prefix(b"\xef\xbb\xbf").unwrap_or(head);
+    let first = text.iter().find(|b| !b.is_ascii_whitespace());
+    if head.starts_with(b"glTF") || matches!(first, Some(b'{') | None) {
+        Ok(())
+    } else {
+        Err("not a glTF file (neither a .glb container starting with `glTF` nor a JSON object)".to_string())
+    }
 }
 
 fn gltf_error(path: &Path, e: gltf::Error) -> FormatError {

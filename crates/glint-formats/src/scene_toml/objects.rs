@@ -201,7 +201,7 @@ impl Builder<'_> {
             })?,
             None => ColourBy::Auto,
         };
-        let file = self.resolve(path)?;
+        let file = self.resolve(path, "path")?;
         let mut cloud = points::read_point_cloud(&file, &PointReadOptions { colour_by })?;
         if let Some(s) = &def.sensor {
             self.orient_toward_sensor(&mut cloud, &file, s)?;
