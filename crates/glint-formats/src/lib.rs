@@ -68,9 +68,10 @@ pub fn load_with(path: &Path, points: &points::PointReadOptions) -> Result<Loade
     let ext = model::extension(path);
     if points::is_point_cloud_path(path) || (ext.eq_ignore_ascii_case("ply") && points::ply_is_point_cloud(path)?) {
         let cloud = points::read_point_cloud(path, points)?;
+        let warnings = points::coincident_warning(path, &cloud).into_iter().collect();
         let scene = scene_for_cloud(cloud);
         scene.validate().map_err(|source| FormatError::Invalid { file: path.to_path_buf(), source })?;
-        return Ok(Loaded { scene, warnings: Vec::new() });
+        return Ok(Loaded { scene, warnings });
     }
     if ext.eq_ignore_ascii_case("xml") {
         let m = mitsuba::load(path, &[], false)?;
