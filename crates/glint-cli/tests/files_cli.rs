@@ -104,7 +104,9 @@ fn the_sandbox_refuses_every_reference_out_of_it() {
     };
     std::fs::write(jail.join("models/passwd.gltf"), gltf("../../../../../../../../etc/passwd")).unwrap();
     let mesh_scene = |path: &str| {
-        format!("[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n\n[[object]]\ntype = \"mesh\"\npath = \"{path}\"\n")
+        format!(
+            "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n\n[[object]]\ntype = \"mesh\"\npath = \"{path}\"\n"
+        )
     };
     std::fs::write(jail.join("ok.toml"), mesh_scene("tri.obj")).unwrap();
     std::fs::write(jail.join("dotdot.toml"), mesh_scene("../secret.obj")).unwrap();
@@ -113,7 +115,9 @@ fn the_sandbox_refuses_every_reference_out_of_it() {
     std::fs::write(jail.join("link.toml"), mesh_scene("link.obj")).unwrap();
     let abs = dir.join("secret.obj");
     std::fs::write(jail.join("absolute.toml"), mesh_scene(&abs.display().to_string())).unwrap();
-    let render = |input: &str| glint(&["render", input, "-o", "out.png", "--width", "16", "--height", "12", "--sandbox", "."], &jail);
+    let render = |input: &str| {
+        glint(&["render", input, "-o", "out.png", "--width", "16", "--height", "12", "--sandbox", "."], &jail)
+    };
 
     let o = render("ok.toml");
     assert!(o.status.success(), "inside the sandbox: {}", stderr(&o));
@@ -121,10 +125,13 @@ fn the_sandbox_refuses_every_reference_out_of_it() {
     let msg = stderr(&o);
     assert!(!o.status.success(), "{msg}");
     assert!(
-        msg.contains("passwd.gltf: buffers[0].uri") && msg.contains("etc/passwd") && msg.contains("outside the sandbox"),
+        msg.contains("passwd.gltf: buffers[0].uri")
+            && msg.contains("etc/passwd")
+            && msg.contains("outside the sandbox"),
         "{msg}"
     );
-    for (scene, shown) in [("dotdot.toml", "../secret.obj"), ("absolute.toml", "secret.obj"), ("link.toml", "link.obj")] {
+    for (scene, shown) in [("dotdot.toml", "../secret.obj"), ("absolute.toml", "secret.obj"), ("link.toml", "link.obj")]
+    {
         let o = render(scene);
         let msg = stderr(&o);
         assert!(!o.status.success(), "{scene}: {msg}");
@@ -132,7 +139,10 @@ fn the_sandbox_refuses_every_reference_out_of_it() {
         assert!(msg.contains(shown) && msg.contains("outside the sandbox"), "{scene}: {msg}");
     }
     // The input itself must be inside too; without --sandbox everything reads.
-    let o = glint(&["render", "../secret.obj", "-o", "out.png", "--width", "16", "--height", "12", "--sandbox", "."], &jail);
+    let o = glint(
+        &["render", "../secret.obj", "-o", "out.png", "--width", "16", "--height", "12", "--sandbox", "."],
+        &jail,
+    );
     assert!(stderr(&o).contains("outside the sandbox"), "{}", stderr(&o));
     let o = glint(&["render", "dotdot.toml", "-o", "out.png", "--width", "16", "--height", "12"], &jail);
     assert!(o.status.success(), "no sandbox: {}", stderr(&o));
@@ -144,11 +154,8 @@ fn the_sandbox_refuses_every_reference_out_of_it() {
 fn escape_sequences_from_files_do_not_reach_the_terminal() {
     let dir = scratch("files-escapes");
     let esc = "\u{1b}]0;owned\u{7}\u{1b}[2J\u{1b}[31m";
-    std::fs::write(
-        dir.join("m.mtl"),
-        format!("newmtl red{esc}\nKd 1 0 0\nKa 2 2 2\nmap_Kd missing{esc}.png\n"),
-    )
-    .unwrap();
+    std::fs::write(dir.join("m.mtl"), format!("newmtl red{esc}\nKd 1 0 0\nKa 2 2 2\nmap_Kd missing{esc}.png\n"))
+        .unwrap();
     std::fs::write(
         dir.join("warn.obj"),
         format!("mtllib m.mtl\nmtllib gone{esc}.mtl\nusemtl nothing{esc}\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
