@@ -31,6 +31,7 @@ seed serialized $(find "$data" -name '*.serialized' | head -10)
 for d in "$repo"/tests/corpus/*/; do
     [ -d "$d" ] || continue
     t=$(basename "$d")
+    case $t in obj) t=obj_mtl ;; toml) t=scene_toml ;; esac
     mkdir -p "$here/corpus/$t"
     cp "$d"/* "$here/corpus/$t/" 2>/dev/null || true
 done

@@ -72,13 +72,18 @@ pub fn is_image_start(path: &Path, head: &[u8]) -> bool {
 /// by the end-of-image marker `FF D9`. Entropy-coded data cannot hold either marker (an `FF`
 /// byte in it is stuffed as `FF 00`).
 fn check_jpeg_complete(path: &Path, bytes: &[u8]) -> Result<(), ImageError> {
-    let last_scan = bytes.windows(2).rposition(|w| w == [0xff, 0xda]);
-    let ends = last_scan.is_some_and(|s| bytes[s..].windows(2).any(|w| w == [0xff, 0xd9]));
-    if ends {
+    if jpeg_is_complete(bytes) {
         Ok(())
     } else {
         Err(ImageError::decode(path, "the JPEG is truncated: its image data ends without the end-of-image marker"))
     }
+}
+
+/// False for a JPEG cut short (see `check_jpeg_complete`): for callers that decode JPEGs
+/// themselves (images embedded in glTF files).
+pub fn jpeg_is_complete(bytes: &[u8]) -> bool {
+    let last_scan = bytes.windows(2).rposition(|w| w == [0xff, 0xda]);
+    last_scan.is_some_and(|s| bytes[s..].windows(2).any(|w| w == [0xff, 0xd9]))
 }
 
 /// [`read_image`] of bytes already in memory; `path` names them in messages and, for a file
@@ -88,7 +93,7 @@ pub fn decode_image(path: &Path, bytes: &[u8]) -> Result<Image, ImageError> {
     if bytes.starts_with(&EXR_MAGIC) || extension.as_deref() == Some("exr") {
         return read_exr(path, bytes);
     }
-    let format = image::guess_format(&bytes).ok().or_else(|| ImageFormat::from_path(path).ok());
+    let format = image::guess_format(bytes).ok().or_else(|| ImageFormat::from_path(path).ok());
     let format = match format {
         Some(f @ (ImageFormat::Png | ImageFormat::Jpeg | ImageFormat::Hdr | ImageFormat::Tga | ImageFormat::Bmp)) => f,
         _ => return Err(ImageError::UnsupportedFormat { path: path.to_path_buf() }),

@@ -170,6 +170,15 @@ pub(super) fn read_image(
             }
         },
     };
+    if image::guess_format(&bytes).is_ok_and(|f| f == image::ImageFormat::Jpeg)
+        && !glint_image::jpeg_is_complete(&bytes)
+    {
+        return Err(FormatError::malformed(
+            path,
+            place,
+            "the JPEG is truncated: its image data ends without the end-of-image marker",
+        ));
+    }
     let decoded = image::load_from_memory(&bytes)
         .map_err(|e| FormatError::malformed(path, place, format!("cannot decode image: {e}")))?;
     texture_file::check_size(path, decoded.width(), decoded.height())?;
