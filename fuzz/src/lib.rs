@@ -22,9 +22,11 @@ pub fn file(name: &str, bytes: &[u8]) -> PathBuf {
     path
 }
 
-/// Every error must name the file it is about (the contract the corpus tests check too).
+/// Every error starts with the file it is about (here `path`, or a file it names) and holds
+/// no raw control character: the contract `tests/corpus` checks on stable.
 pub fn check_error(path: &Path, e: &glint_formats::FormatError) {
     let text = e.to_string();
-    assert!(!text.contains('\u{1b}'), "an escape character reaches the terminal: {text:?}");
-    let _ = path;
+    assert!(!text.chars().any(char::is_control), "a control character reaches the terminal: {text:?}");
+    let file = glint_formats::error::shown(e.file());
+    assert!(!file.is_empty() && text.starts_with(&file), "{}: the error does not start with its file: {text}", path.display());
 }
