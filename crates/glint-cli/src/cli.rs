@@ -70,6 +70,11 @@ pub struct SceneArgs {
     /// glTF: render from the camera of this name (default: the first camera in node order).
     #[arg(long = "camera-name", value_name = "NAME")]
     pub camera_name: Option<String>,
+    /// Read only files inside DIR: every file the scene names (meshes, textures, skies,
+    /// includes, glTF buffers and images) must resolve, after symlinks, inside DIR, and so must
+    /// the input itself. For scenes from others (render services, queues); see docs/limits.md.
+    #[arg(long, value_name = "DIR")]
+    pub sandbox: Option<std::path::PathBuf>,
 }
 
 #[derive(Args, Debug, Clone)]

@@ -52,6 +52,21 @@ pub fn load_scene(path: Option<&Path>, colour_by: ColourBy, args: &SceneArgs, qu
     if args.lenient && kind != "xml" && kind != "gltf" {
         bail!("--lenient applies to Mitsuba XML and glTF files; this input is neither");
     }
+    let policy = match &args.sandbox {
+        Some(dir) => glint_formats::FilePolicy::sandbox(dir).context("--sandbox")?,
+        None => glint_formats::FilePolicy::open(),
+    };
+    policy.apply(|| load_policed(path, kind, &options, args, quiet))
+}
+
+/// [`load_scene`] under the file policy in force.
+fn load_policed(
+    path: Option<&Path>,
+    kind: &str,
+    options: &PointReadOptions,
+    args: &SceneArgs,
+    quiet: bool,
+) -> Result<Scene> {
     let loaded = match path {
         Some(p) if kind == "xml" => {
             let m = glint_formats::mitsuba::load(p, &defines(args)?, args.lenient)
@@ -62,13 +77,13 @@ pub fn load_scene(path: Option<&Path>, colour_by: ColourBy, args: &SceneArgs, qu
             let o = glint_formats::GltfOptions { camera_name: args.camera_name.clone(), lenient: args.lenient };
             glint_formats::load_gltf(p, &o).with_context(|| format!("cannot load {}", p.display()))?
         }
-        Some(p) => glint_formats::load_with(p, &options).with_context(|| format!("cannot load {}", p.display()))?,
+        Some(p) => glint_formats::load_with(p, options).with_context(|| format!("cannot load {}", p.display()))?,
         None => glint_formats::load_scene_str(glint_formats::DEMO_SCENE, Path::new("."), "<built-in demo scene>")
             .context("the built-in demo scene does not load (a bug)")?,
     };
     if !quiet {
         for w in &loaded.warnings {
-            eprintln!("glint: warning: {w}");
+            eprintln!("glint: warning: {}", glint_formats::printable(w));
         }
     }
     Ok(loaded.scene)

@@ -16,7 +16,9 @@ fn main() -> ExitCode {
     match commands::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("glint: error: {e:#}");
+            // Messages quote names and lines from the input files: no escape sequence of
+            // theirs reaches the terminal.
+            eprintln!("glint: error: {}", glint_formats::printable(&format!("{e:#}")));
             ExitCode::FAILURE
         }
     }

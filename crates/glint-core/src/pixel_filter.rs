@@ -13,9 +13,10 @@
 use glam::Vec2;
 
 /// A separable pixel filter (1-D profile per axis, in pixels).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum PixelFilter {
     /// The pixel's own square (radius ½): glint's default.
+    #[default]
     Box,
     /// 1 − |x| / r on |x| < r (Mitsuba's `tent`, r = 1 by default).
     Tent { radius: f32 },
@@ -24,11 +25,6 @@ pub enum PixelFilter {
     Gaussian { stddev: f32 },
 }
 
-impl Default for PixelFilter {
-    fn default() -> Self {
-        PixelFilter::Box
-    }
-}
 
 /// The widest filter accepted, in pixels (a wider one blurs more than any film filter should).
 pub const MAX_FILTER_RADIUS: f32 = 16.0;

@@ -18,6 +18,7 @@
 #![forbid(unsafe_code)]
 
 pub mod error;
+pub mod files;
 mod gltf_file;
 pub mod mitsuba;
 mod model;
@@ -28,7 +29,8 @@ mod scene_toml;
 pub mod sky;
 mod texture_file;
 
-pub use error::FormatError;
+pub use error::{FormatError, printable};
+pub use files::FilePolicy;
 pub use gltf_file::{GltfOptions, load_gltf};
 pub use model::{Model, default_camera, load_model, scene_for_cloud, scene_for_model};
 pub use sky::{
@@ -66,16 +68,17 @@ pub fn load_with(path: &Path, points: &points::PointReadOptions) -> Result<Loade
     let ext = model::extension(path);
     if points::is_point_cloud_path(path) || (ext.eq_ignore_ascii_case("ply") && points::ply_is_point_cloud(path)?) {
         let cloud = points::read_point_cloud(path, points)?;
+        let warnings = points::coincident_warning(path, &cloud).into_iter().collect();
         let scene = scene_for_cloud(cloud);
         scene.validate().map_err(|source| FormatError::Invalid { file: path.to_path_buf(), source })?;
-        return Ok(Loaded { scene, warnings: Vec::new() });
+        return Ok(Loaded { scene, warnings });
     }
     if ext.eq_ignore_ascii_case("xml") {
         let m = mitsuba::load(path, &[], false)?;
         return Ok(Loaded { scene: m.scene, warnings: m.warnings });
     }
     if ext.eq_ignore_ascii_case("toml") {
-        let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
+        let text = files::read_text(path, None, "a TOML scene")?;
         let base_dir = path.parent().unwrap_or(Path::new(""));
         return scene_toml::load_scene_text(&text, base_dir, path);
     }

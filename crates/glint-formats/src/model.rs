@@ -63,6 +63,37 @@ pub fn load_model(path: &Path) -> Result<Model, FormatError> {
     }
 }
 
+/// Polygons with up to this many corners are split into a fan from their first corner.
+const FAN_CORNERS: usize = 8;
+
+/// Splits a (convex) polygon into `corners.len() - 2` triangles, appended to `out`, in time
+/// linear in its corners. Small polygons become a fan from the first corner (what every
+/// modeller expects of a quad). A large one is split in halves recursively instead: corners
+/// `a, m, b` (m halfway from a to b) make a triangle and the chains a..m and m..b are split the
+/// same way. A fan of a 2-million-corner disc is 2 million slivers that all reach the disc's
+/// first corner, whose bounding boxes overlap so much that the BVH cannot separate them (an
+/// image took 47 s); the halves make compact triangles, nested like the BVH wants them.
+pub(crate) fn split_polygon(corners: &[u32], out: &mut Vec<[u32; 3]>) {
+    let n = corners.len();
+    if n < 3 {
+        return;
+    }
+    if n <= FAN_CORNERS {
+        out.extend((1..n - 1).map(|k| [corners[0], corners[k], corners[k + 1]]));
+        return;
+    }
+    let mut chains = vec![(0usize, n - 1)];
+    while let Some((a, b)) = chains.pop() {
+        if b - a < 2 {
+            continue;
+        }
+        let m = a + (b - a) / 2;
+        out.push([corners[a], corners[m], corners[b]]);
+        chains.push((m, b));
+        chains.push((a, m));
+    }
+}
+
 /// Drops zero-area triangles (warning per mesh) and meshes left without triangles. It is an
 /// error when no triangle at all remains.
 pub(crate) fn finish_meshes(
@@ -295,6 +326,38 @@ mod tests {
             }
             assert!(widest > 0.75, "the model fills the view along one axis: {widest}");
         }
+    }
+
+    /// Every polygon becomes `n - 2` triangles that tile it: for a convex polygon, the areas add
+    /// up to the polygon's, each triangle is wound like the polygon, and every corner is used.
+    #[test]
+    fn polygons_split_into_triangles_that_tile_them() {
+        for n in [3usize, 4, 5, 8, 9, 10, 17, 64, 1000, 4097] {
+            let corners: Vec<u32> = (0..n as u32).collect();
+            let point = |i: u32| {
+                let a = std::f64::consts::TAU * f64::from(i) / n as f64;
+                (a.cos(), a.sin())
+            };
+            let mut tris = Vec::new();
+            split_polygon(&corners, &mut tris);
+            assert_eq!(tris.len(), n - 2, "{n} corners");
+            let mut area = 0.0;
+            let mut used = vec![false; n];
+            for t in &tris {
+                let [p, q, r] = t.map(point);
+                let twice = (q.0 - p.0) * (r.1 - p.1) - (q.1 - p.1) * (r.0 - p.0);
+                assert!(twice > 0.0, "{n} corners: {t:?} is not wound counter-clockwise");
+                area += 0.5 * twice;
+                t.iter().for_each(|&i| used[i as usize] = true);
+            }
+            let polygon = 0.5 * n as f64 * (std::f64::consts::TAU / n as f64).sin();
+            assert!((area - polygon).abs() < 1e-9 * polygon.max(1.0), "{n}: {area} vs {polygon}");
+            assert!(used.iter().all(|&u| u), "{n}: a corner is unused");
+        }
+        // Quads and other small polygons stay fans from the first corner.
+        let mut quad = Vec::new();
+        split_polygon(&[7, 8, 9, 10], &mut quad);
+        assert_eq!(quad, [[7, 8, 9], [7, 9, 10]]);
     }
 
     #[test]

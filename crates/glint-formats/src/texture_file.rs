@@ -16,10 +16,24 @@ const MAX_TEXTURE_SIDE: u32 = 16_384;
 
 /// Reads an image file as a linear-RGB texture.
 pub(crate) fn read_texture_image(path: &Path) -> Result<TextureImage, FormatError> {
-    let (width, height, texels) = glint_image::read_texture(path).map_err(|e| image_error(path, e))?;
+    let image = read_image_file(path)?;
+    let (width, height, texels) = glint_image::texture_from_image(path, image).map_err(|e| image_error(path, e))?;
     check_size(path, width, height)?;
     let texels = texels.into_iter().map(|c| Rgb::from_array(c.map(|v| if v.is_finite() { v.max(0.0) } else { 0.0 })));
     Ok(TextureImage { width, height, texels: texels.collect() })
+}
+
+/// Decodes an image file opened through [`crate::files`] (regular files only, inside the
+/// sandbox), refused after its first bytes when they start no image glint reads.
+pub(crate) fn read_image_file(path: &Path) -> Result<glint_image::Image, FormatError> {
+    let bytes = crate::files::read_sniffed(path, None, |head| {
+        if glint_image::is_image_start(path, head) {
+            Ok(())
+        } else {
+            Err("not a PNG, JPEG, TGA, BMP, Radiance HDR or OpenEXR image".to_string())
+        }
+    })?;
+    glint_image::decode_image(path, &bytes).map_err(|e| image_error(path, e))
 }
 
 pub(crate) fn image_error(path: &Path, e: ImageError) -> FormatError {

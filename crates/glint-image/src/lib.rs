@@ -62,7 +62,10 @@ pub use exr_io::write_exr;
 pub use hdr_io::write_hdr;
 pub use planar::{Channel, Image, RgbPlanes};
 pub use png_io::{JPEG_QUALITY, PngOptions, encode_srgb8, write_jpeg, write_png};
-pub use read::{MAX_PIXELS, MAX_SAMPLES, MAX_SIDE, read_image, read_texture};
+pub use read::{
+    MAX_PIXELS, MAX_SAMPLES, MAX_SIDE, decode_image, is_image_start, jpeg_is_complete, read_image, read_texture,
+    texture_from_image,
+};
 pub use tonemap::ToneMap;
 
 use std::path::Path;

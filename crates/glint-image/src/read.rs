@@ -51,16 +51,57 @@ pub(crate) fn check_size(path: &Path, width: u64, height: u64) -> Result<(), Ima
 /// contents ([`ImageError::Decode`]), unknown format, or a header beyond the size limits.
 pub fn read_image(path: &Path) -> Result<Image, ImageError> {
     let bytes = std::fs::read(path).map_err(|e| ImageError::io(path, e))?;
+    decode_image(path, &bytes)
+}
+
+/// True when `head`, the first bytes of a file, can start an image glint reads (by its
+/// magic number; TGA, which has none, by the extension of `path`). Lets a caller refuse a
+/// file of another kind before reading all of it.
+pub fn is_image_start(path: &Path, head: &[u8]) -> bool {
+    let tga = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("tga"));
+    head.starts_with(&EXR_MAGIC)
+        || tga
+        || matches!(
+            image::guess_format(head),
+            Ok(ImageFormat::Png | ImageFormat::Jpeg | ImageFormat::Hdr | ImageFormat::Bmp)
+        )
+}
+
+/// A JPEG cut short: the `image` crate fills the missing rows with grey and reports nothing,
+/// so glint checks that the last scan (after the last start-of-scan marker `FF DA`) is followed
+/// by the end-of-image marker `FF D9`. Entropy-coded data cannot hold either marker (an `FF`
+/// byte in it is stuffed as `FF 00`).
+fn check_jpeg_complete(path: &Path, bytes: &[u8]) -> Result<(), ImageError> {
+    if jpeg_is_complete(bytes) {
+        Ok(())
+    } else {
+        Err(ImageError::decode(path, "the JPEG is truncated: its image data ends without the end-of-image marker"))
+    }
+}
+
+/// False for a JPEG cut short (see `check_jpeg_complete`): for callers that decode JPEGs
+/// themselves (images embedded in glTF files).
+pub fn jpeg_is_complete(bytes: &[u8]) -> bool {
+    let last_scan = bytes.windows(2).rposition(|w| w == [0xff, 0xda]);
+    last_scan.is_some_and(|s| bytes[s..].windows(2).any(|w| w == [0xff, 0xd9]))
+}
+
+/// [`read_image`] of bytes already in memory; `path` names them in messages and, for a file
+/// without a magic number (TGA), gives the format by its extension.
+pub fn decode_image(path: &Path, bytes: &[u8]) -> Result<Image, ImageError> {
     let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     if bytes.starts_with(&EXR_MAGIC) || extension.as_deref() == Some("exr") {
-        return read_exr(path, &bytes);
+        return read_exr(path, bytes);
     }
-    let format = image::guess_format(&bytes).ok().or_else(|| ImageFormat::from_path(path).ok());
+    let format = image::guess_format(bytes).ok().or_else(|| ImageFormat::from_path(path).ok());
     let format = match format {
         Some(f @ (ImageFormat::Png | ImageFormat::Jpeg | ImageFormat::Hdr | ImageFormat::Tga | ImageFormat::Bmp)) => f,
         _ => return Err(ImageError::UnsupportedFormat { path: path.to_path_buf() }),
     };
-    let mut reader = ImageReader::with_format(Cursor::new(&bytes), format);
+    if format == ImageFormat::Jpeg {
+        check_jpeg_complete(path, bytes)?;
+    }
+    let mut reader = ImageReader::with_format(Cursor::new(bytes), format);
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(MAX_SIDE as u32);
     limits.max_image_height = Some(MAX_SIDE as u32);
@@ -76,7 +117,11 @@ pub fn read_image(path: &Path) -> Result<Image, ImageError> {
 /// Reads an image for use as a texture or sky: linear RGB, row-major, top row first.
 /// LDR files are decoded from sRGB; an EXR needs `R`,`G`,`B` (or a single `Y`, replicated).
 pub fn read_texture(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
-    let image = read_image(path)?;
+    texture_from_image(path, read_image(path)?)
+}
+
+/// [`read_texture`] of an image already decoded (by [`decode_image`]).
+pub fn texture_from_image(path: &Path, image: Image) -> Result<(u32, u32, Vec<[f32; 3]>), ImageError> {
     let pixels = match (image.rgb(), image.channel("Y")) {
         (Some(rgb), _) => rgb,
         (None, Some(y)) => y.iter().map(|&v| [v; 3]).collect(),

@@ -115,7 +115,7 @@ fn apply_sky(scene: &mut Scene, args: &SkyArgs, input: Option<&Path>) -> Result<
         };
         let loaded = load_sky(&SkySource::Path(path.clone()), &options).context("--sky")?;
         for w in &loaded.warnings {
-            eprintln!("warning: {w}");
+            eprintln!("warning: {}", glint_formats::printable(w));
         }
         scene.sky = loaded.sky;
         // A model file comes with a generic scene around it: let the new sky light it.

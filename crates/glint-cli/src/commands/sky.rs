@@ -54,7 +54,7 @@ fn convert(args: &SkyConvertArgs) -> Result<()> {
     let loaded = glint_formats::sky::load_sky_texels(&SkySource::Path(args.input.clone()), &options)?;
     if !args.quiet {
         for w in &loaded.warnings {
-            eprintln!("glint: warning: {w}");
+            eprintln!("glint: warning: {}", glint_formats::printable(w));
         }
     }
     let map = SkyMapRef::Texels(&loaded.texels);
@@ -64,7 +64,7 @@ fn convert(args: &SkyConvertArgs) -> Result<()> {
     let written = glint_formats::write_sky(map, to, &args.output, &write_options)?;
     if !args.quiet {
         for w in &written.warnings {
-            eprintln!("glint: warning: {w}");
+            eprintln!("glint: warning: {}", glint_formats::printable(w));
         }
         let size = if to == SkyLayout::LatLong {
             format!("{}x{}", 2 * written.size, written.size)

@@ -67,10 +67,11 @@ fn read_uri(path: &Path, base: &Path, uri: &str, place: &str) -> Result<UriData,
         return Err(FormatError::malformed(path, place, format!("unsupported URI scheme in `{uri}`")));
     }
     let file = base.join(percent_decode(relative));
-    match std::fs::read(&file) {
+    let field = format!("{place}.uri");
+    match crate::files::read(&file, Some(crate::files::Referrer::new(path, &field))) {
         Ok(bytes) => Ok(UriData::Bytes(bytes)),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(UriData::Missing(file)),
-        Err(e) => Err(FormatError::io(file, e)),
+        Err(FormatError::MissingFile { .. }) => Ok(UriData::Missing(file)),
+        Err(e) => Err(e),
     }
 }
 
@@ -169,6 +170,15 @@ pub(super) fn read_image(
             }
         },
     };
+    if image::guess_format(&bytes).is_ok_and(|f| f == image::ImageFormat::Jpeg)
+        && !glint_image::jpeg_is_complete(&bytes)
+    {
+        return Err(FormatError::malformed(
+            path,
+            place,
+            "the JPEG is truncated: its image data ends without the end-of-image marker",
+        ));
+    }
     let decoded = image::load_from_memory(&bytes)
         .map_err(|e| FormatError::malformed(path, place, format!("cannot decode image: {e}")))?;
     texture_file::check_size(path, decoded.width(), decoded.height())?;

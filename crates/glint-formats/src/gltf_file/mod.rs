@@ -84,7 +84,7 @@ struct GltfScene {
 /// [`read`], with the `gltf` crate's panics turned into errors, and zero-area triangles
 /// dropped.
 fn read_guarded(path: &Path) -> Result<GltfScene, FormatError> {
-    let data = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let data = crate::files::read_sniffed(path, None, sniff_gltf)?;
     // The gltf crate trusts its validation in a few `unwrap`s; a file that slips past it must
     // still be an error, not a crash.
     let result = std::panic::catch_unwind(|| read(path, &data));
@@ -93,6 +93,18 @@ fn read_guarded(path: &Path) -> Result<GltfScene, FormatError> {
     })?;
     model::finish_meshes(path, &mut scene.model.meshes, &mut scene.model.warnings)?;
     Ok(scene)
+}
+
+/// A .glb starts with `glTF`; a .gltf is JSON, an object (after an optional byte-order mark
+/// and white space).
+fn sniff_gltf(head: &[u8]) -> Result<(), String> {
+    let text = head.strip_prefix(b"\xef\xbb\xbf").unwrap_or(head);
+    let first = text.iter().find(|b| !b.is_ascii_whitespace());
+    if head.starts_with(b"glTF") || matches!(first, Some(b'{') | None) {
+        Ok(())
+    } else {
+        Err("not a glTF file (neither a .glb container starting with `glTF` nor a JSON object)".to_string())
+    }
 }
 
 fn gltf_error(path: &Path, e: gltf::Error) -> FormatError {
@@ -115,10 +127,39 @@ fn gltf_error(path: &Path, e: gltf::Error) -> FormatError {
     }
 }
 
+/// The document, validated. The `gltf` crate's validation indexes a primitive's POSITION
+/// accessor without checking that it exists (a panic, found by fuzzing:
+/// tests/corpus/gltf/position_accessor_missing.gltf), so that reference is checked first.
+fn parse(path: &Path, data: &[u8]) -> Result<Gltf, FormatError> {
+    use gltf::json::validation::{Checked, Validate};
+    let gltf = Gltf::from_slice_without_validation(data).map_err(|e| gltf_error(path, e))?;
+    let root = gltf.document.as_json();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = primitive.attributes.get(&Checked::Valid(gltf::Semantic::Positions));
+            if let Some(index) = position
+                && index.value() >= root.accessors.len()
+            {
+                return Err(FormatError::malformed(
+                    path,
+                    format!("meshes[{m}].primitives[{p}].attributes.POSITION"),
+                    format!("accessors[{}] does not exist ({} accessors)", index.value(), root.accessors.len()),
+                ));
+            }
+        }
+    }
+    let mut errors = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |at, error| errors.push((at(), error)));
+    if !errors.is_empty() {
+        return Err(gltf_error(path, gltf::Error::Validation(errors)));
+    }
+    Ok(gltf)
+}
+
 /// The file's materials, one world-space mesh of all its triangle primitives, its cameras and
 /// lights, and warnings.
 fn read(path: &Path, data: &[u8]) -> Result<GltfScene, FormatError> {
-    let Gltf { document, blob } = Gltf::from_slice(data).map_err(|e| gltf_error(path, e))?;
+    let Gltf { document, blob } = parse(path, data)?;
     let base = path.parent().unwrap_or(Path::new(""));
     let mut warnings = Vec::new();
     let buffers = read_buffers(path, base, &document, blob)?;

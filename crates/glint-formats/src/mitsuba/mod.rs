@@ -232,10 +232,13 @@ impl<'a> Builder<'a> {
                 .chain(std::iter::once(self.main_dir.join(given)))
                 .collect()
         };
-        candidates.iter().find(|c| c.is_file()).cloned().ok_or_else(|| FormatError::MissingFile {
+        let found = candidates.iter().find(|c| c.exists()).cloned().ok_or_else(|| FormatError::MissingFile {
             file: candidates[0].clone(),
             referenced_from: format!("{} {}", at.loc.describe(), at.describe()),
-        })
+        })?;
+        let field = format!("line {} {} filename", at.loc.line, at.describe());
+        crate::files::check(&found, Some(crate::files::Referrer::new(&at.loc.file, &field)))?;
+        Ok(found)
     }
 
     fn top_level(&mut self, el: &'a Element) -> Result<(), FormatError> {

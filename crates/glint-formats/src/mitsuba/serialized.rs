@@ -32,7 +32,13 @@ pub(super) struct SerializedMesh {
 /// Reads mesh `shape_index` of a `.serialized` file as a glint mesh (uvs turned to glint's
 /// convention, v = 0 at the image's bottom; face-normal meshes without vertex normals).
 pub fn read_serialized(path: &Path, shape_index: u32) -> Result<Mesh, FormatError> {
-    let data = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let data = crate::files::read_sniffed(path, None, |head| {
+        if head.len() >= 2 && head[..2] != [0x1c, 0x04] {
+            Err("not a Mitsuba .serialized file (it does not start with 1C 04)".to_string())
+        } else {
+            Ok(())
+        }
+    })?;
     let mut m = parse(path, &data, shape_index)?;
     if let Some(uvs) = &mut m.mesh.uvs {
         for uv in uvs {

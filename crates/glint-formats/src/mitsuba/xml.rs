@@ -90,12 +90,10 @@ impl Reader {
 
     /// Reads `path` (its root must be `<scene>`), includes expanded.
     pub fn read(&mut self, path: &Path, from: Option<&Loc>) -> Result<Element, FormatError> {
-        let canonical = std::fs::canonicalize(path).map_err(|e| match from {
-            Some(loc) if e.kind() == std::io::ErrorKind::NotFound => {
-                FormatError::MissingFile { file: path.to_path_buf(), referenced_from: loc.describe() }
-            }
-            _ => FormatError::io(path, e),
-        })?;
+        let field = from.map(|loc| format!("line {} <include filename>", loc.line));
+        let by = from.zip(field.as_deref()).map(|(loc, field)| crate::files::Referrer::new(&loc.file, field));
+        crate::files::check(path, by)?;
+        let canonical = std::fs::canonicalize(path).map_err(|e| FormatError::io(path, e))?;
         if let Some(loc) = from {
             if self.stack.contains(&canonical) {
                 let chain: Vec<String> = self.stack.iter().map(|p| p.display().to_string()).collect();
@@ -116,7 +114,7 @@ impl Reader {
                 format!("scene file of {size} bytes is larger than {MAX_XML_BYTES}"),
             ));
         }
-        let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
+        let text = crate::files::read_text(path, None, "a Mitsuba XML scene")?;
         let file = Arc::new(path.to_path_buf());
         let doc = roxmltree::Document::parse(&text).map_err(|e| {
             let pos = e.pos();

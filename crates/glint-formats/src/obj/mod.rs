@@ -61,7 +61,7 @@ const NONE: u32 = u32::MAX;
 
 /// Reads an OBJ file and the MTL files it names.
 pub(crate) fn load(path: &Path) -> Result<Model, FormatError> {
-    let data = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let data = crate::files::read_sniffed(path, None, crate::files::text("an OBJ file"))?;
     let mut model = parse(path, &data)?;
     model::finish_meshes(path, &mut model.meshes, &mut model.warnings)?;
     Ok(model)
@@ -333,11 +333,11 @@ impl<'a> Parser<'a> {
         if corners.len() < 3 {
             return Err(at.err(format!("a face needs at least 3 corners, found {}", corners.len())));
         }
-        for k in 1..corners.len() - 1 {
-            self.b.triangles.push([corners[0], corners[k], corners[k + 1]]);
-            if self.uses_materials {
-                self.b.triangle_materials.push(self.current_material);
-            }
+        let before = self.b.triangles.len();
+        model::split_polygon(corners, &mut self.b.triangles);
+        if self.uses_materials {
+            let added = self.b.triangles.len() - before;
+            self.b.triangle_materials.extend(std::iter::repeat_n(self.current_material, added));
         }
         Ok(())
     }
@@ -379,18 +379,20 @@ impl<'a> Parser<'a> {
         let dir = self.path.parent().unwrap_or(Path::new(""));
         // File names with spaces: try the whole rest of the line first.
         let whole = rest.trim();
-        let names: Vec<&str> = if files.len() > 1 && dir.join(whole).is_file() { vec![whole] } else { files };
+        let names: Vec<&str> = if files.len() > 1 && dir.join(whole).exists() { vec![whole] } else { files };
         for f in names {
             let mtl_path = dir.join(f);
-            match std::fs::read(&mtl_path) {
+            let field = format!("line {} mtllib", at.line);
+            let by = Some(crate::files::Referrer::new(self.path, &field));
+            match crate::files::read_sniffed(&mtl_path, by, crate::files::text("an MTL file")) {
                 Ok(text) => self.library.read(&mtl_path, &text, &mut self.warnings)?,
-                Err(e) if e.kind() == std::io::ErrorKind::NotFound => self.warnings.push(format!(
+                Err(FormatError::MissingFile { .. }) => self.warnings.push(format!(
                     "{}:{}: material library {} not found; its materials are replaced by the default material",
                     file_name(self.path),
                     at.line,
                     mtl_path.display()
                 )),
-                Err(e) => return Err(FormatError::io(mtl_path, e)),
+                Err(e) => return Err(e),
             }
         }
         Ok(())

@@ -222,7 +222,7 @@ impl MaterialLibrary {
             let image_path = dir.join(&name);
             m.texture = match self.texture_files.get(&image_path) {
                 Some(&t) => Some(t),
-                None if !image_path.is_file() => {
+                None if !image_path.exists() => {
                     warnings.push(format!(
                         "{file}:{line}: texture {} not found; material '{}' uses its Kd colour",
                         image_path.display(),
@@ -231,6 +231,8 @@ impl MaterialLibrary {
                     None
                 }
                 None => {
+                    let field = format!("line {line} map_Kd");
+                    crate::files::check(&image_path, Some(crate::files::Referrer::new(path, &field)))?;
                     let image = Arc::new(texture_file::read_texture_image(&image_path)?);
                     self.textures.push(Texture::Image { image, scale, sampler: Sampler::default() });
                     self.texture_files.insert(image_path, self.textures.len() - 1);

@@ -21,8 +21,20 @@ use std::path::Path;
 
 /// Reads a PLY file, keeping the properties `select` picks (by element and property).
 pub fn read_ply(path: &Path, select: &dyn Fn(&Element, &Property) -> bool) -> Result<PlyData, FormatError> {
-    let data = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let data = read_bytes(path)?;
     parse_ply(path, &data, select)
+}
+
+/// The bytes of a PLY file, refused after its first line if that is not `ply`.
+pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>, FormatError> {
+    crate::files::read_sniffed(path, None, |head| {
+        let first = head.split(|&b| b == b'\n').next().unwrap_or_default();
+        if first.strip_suffix(b"\r").unwrap_or(first) == b"ply" || head.len() < 4 && b"ply\n".starts_with(head) {
+            Ok(())
+        } else {
+            Err("not a PLY file (the first line is not `ply`)".to_string())
+        }
+    })
 }
 
 /// Reads PLY data already in memory; `path` names it in messages.
@@ -149,9 +161,7 @@ fn mesh_from_ply(path: &Path, data: &PlyData, warnings: &mut Vec<String>) -> Res
             short += 1;
             continue;
         }
-        for k in 1..c - 1 {
-            triangles.push([poly[0], poly[k], poly[k + 1]]);
-        }
+        model::split_polygon(poly, &mut triangles);
     }
     if short > 0 {
         warnings.push(format!("{name}: skipped {short} faces with fewer than 3 vertices"));

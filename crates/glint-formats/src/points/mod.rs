@@ -46,6 +46,24 @@ fn cloud_format(path: &Path) -> Option<CloudFormat> {
     })
 }
 
+/// A warning when the cloud's points all lie at one position (a LAS file with a tiny scale, a
+/// scan that recorded nothing): it would show as a dot or nothing, with no other word.
+pub fn coincident_warning(path: &Path, cloud: &PointCloud) -> Option<String> {
+    let first = *cloud.positions.first()?;
+    if cloud.positions.len() < 2 || cloud.positions.iter().any(|&p| p != first) {
+        return None;
+    }
+    let at = cloud.origin + first.as_dvec3();
+    Some(format!(
+        "{}: all {} points lie at one position ({:.6}, {:.6}, {:.6}); the cloud shows as a single dot at most",
+        crate::model::file_name(path),
+        cloud.positions.len(),
+        at.x,
+        at.y,
+        at.z
+    ))
+}
+
 /// Reads a point cloud, by extension (case-insensitive): `.ply` (its vertices; see
 /// [`ply_is_point_cloud`] to tell a cloud from a mesh), `.las`, `.laz`, and `.xyz` / `.txt` /
 /// `.pts` text.

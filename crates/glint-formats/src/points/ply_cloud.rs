@@ -41,14 +41,14 @@ fn wanted(name: &str) -> bool {
 
 /// Reads a PLY file as a point cloud.
 pub(crate) fn read_ply_cloud(path: &Path, options: &PointReadOptions) -> Result<PointCloud, FormatError> {
-    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let bytes = crate::ply::read_bytes(path)?;
     parse_ply_cloud(path, &bytes, options)
 }
 
 /// True when the PLY file is a point cloud: it has a `vertex` element and no `face` element,
 /// or one with no faces. (The whole file is parsed: the body must match the header.)
 pub fn ply_is_point_cloud(path: &Path) -> Result<bool, FormatError> {
-    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let bytes = crate::ply::read_bytes(path)?;
     let ply = parse_ply(path, &bytes, &|_, _| false)?;
     Ok(ply.element("vertex").is_some() && ply.element("face").is_none_or(|f| f.count == 0))
 }

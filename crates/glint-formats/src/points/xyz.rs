@@ -28,7 +28,7 @@ pub fn read_xyz(path: &Path) -> Result<PointCloud, FormatError> {
 }
 
 pub(crate) fn read_xyz_with(path: &Path, options: &PointReadOptions) -> Result<PointCloud, FormatError> {
-    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let bytes = crate::files::read_sniffed(path, None, crate::files::text("an XYZ/PTS point file"))?;
     parse_xyz_with(&bytes, path, options)
 }
 

@@ -47,7 +47,7 @@ impl Builder<'_> {
                 let Some(path) = &def.path else {
                     return Err(self.missing(&t.span(), "an image texture needs `path`"));
                 };
-                let file = self.resolve(path)?;
+                let file = self.resolve(path, "path")?;
                 let image = match self.images.get(&file) {
                     Some(i) => i.clone(),
                     None => {

@@ -89,7 +89,7 @@ impl Builder<'_> {
         shading: Option<Shading>,
         overridden: bool,
     ) -> Result<Vec<usize>, FormatError> {
-        let file = self.resolve(path)?;
+        let file = self.resolve(path, "path")?;
         if model::ModelFormat::from_extension(&model::extension(&file)).is_none() {
             return Err(self.err(
                 &path.span(),

@@ -28,6 +28,7 @@ pub(crate) use defs::Shading;
 
 use crate::Loaded;
 use crate::error::FormatError;
+use crate::files;
 use crate::model::Model;
 use defs::{SceneDef, Span};
 use glint_core::{Rgb, Vec3};
@@ -198,11 +199,15 @@ impl Builder<'_> {
         v.get_ref().0.try_normalize().ok_or_else(|| self.err(&v.span(), format!("`{key}` has zero length")))
     }
 
-    fn resolve(&self, path: &Spanned<String>) -> Result<PathBuf, FormatError> {
+    /// The file a scene's `key` names: it must exist, be a regular file and (under a
+    /// sandbox) lie inside it ([`files::check`]).
+    fn resolve(&self, path: &Spanned<String>, key: &str) -> Result<PathBuf, FormatError> {
         let p = self.base_dir.join(path.get_ref());
-        if !p.is_file() {
+        if !p.exists() {
             return Err(FormatError::MissingFile { file: p, referenced_from: self.place(&path.span()) });
         }
+        let field = format!("line {} `{key}`", line_column(self.text, path.span().start).0);
+        files::check(&p, Some(files::Referrer::new(self.file, &field)))?;
         Ok(p)
     }
 

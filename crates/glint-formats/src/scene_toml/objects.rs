@@ -183,7 +183,7 @@ impl Builder<'_> {
         Ok(Made::Objects { shapes, world_from_object })
     }
 
-    fn point_cloud(&self, o: &Spanned<ObjectDef>, name: String) -> Result<Made, FormatError> {
+    fn point_cloud(&mut self, o: &Spanned<ObjectDef>, name: String) -> Result<Made, FormatError> {
         let def = o.get_ref();
         self.allow_keys(def, &["path", "colour_by", "sensor"], true, "a point cloud")?;
         let Some(path) = &def.path else {
@@ -201,8 +201,9 @@ impl Builder<'_> {
             })?,
             None => ColourBy::Auto,
         };
-        let file = self.resolve(path)?;
+        let file = self.resolve(path, "path")?;
         let mut cloud = points::read_point_cloud(&file, &PointReadOptions { colour_by })?;
+        self.warnings.extend(points::coincident_warning(&file, &cloud));
         if let Some(s) = &def.sensor {
             self.orient_toward_sensor(&mut cloud, &file, s)?;
         }

@@ -146,6 +146,13 @@ impl Builder<'_> {
                 if !full.exists() {
                     return Err(FormatError::MissingFile { file: full, referenced_from: self.place(&p.span()) });
                 }
+                let field = format!("line {} `path`", super::line_column(self.text, p.span().start).0);
+                let by = Some(crate::files::Referrer::new(self.file, &field));
+                if full.is_dir() {
+                    crate::files::check_folder(&full, by)?;
+                } else {
+                    crate::files::check(&full, by)?;
+                }
                 Ok(SkySource::Path(full))
             }
             (None, Some(f)) => {
@@ -161,7 +168,7 @@ impl Builder<'_> {
                 }
                 let mut paths = Vec::with_capacity(6);
                 for p in list {
-                    paths.push(self.resolve(p)?);
+                    paths.push(self.resolve(p, "faces")?);
                 }
                 Ok(SkySource::Faces(std::array::from_fn(|i| paths[i].clone())))
             }

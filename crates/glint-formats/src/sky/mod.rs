@@ -22,7 +22,6 @@ pub use transform::FaceTransform;
 pub use write::{SkyMapRef, SkyWriteOptions, WrittenSky, write_sky};
 
 use crate::error::FormatError;
-use crate::texture_file::image_error;
 use glint_core::Rgb;
 use glint_image::Image;
 use glint_scene::{CubeFace, CubeMap, LatLongMap, Sky, SkyTransform, TextureImage};
@@ -264,7 +263,7 @@ fn check_side(path: &Path, side: u32) -> Result<(), FormatError> {
 }
 
 fn read_image(path: &Path) -> Result<Image, FormatError> {
-    let image = glint_image::read_image(path).map_err(|e| image_error(path, e))?;
+    let image = crate::texture_file::read_image_file(path)?;
     if image.rgb_planes().is_some() {
         return Ok(image);
     }

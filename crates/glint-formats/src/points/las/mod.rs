@@ -72,6 +72,23 @@ fn check_header(path: &Path, file: &mut File, file_len: u64) -> Result<(), Forma
     let record_len = u64::from(raw.point_data_record_length);
     let compressed = raw.point_data_record_format & 0x80 != 0;
     let start = u64::from(raw.offset_to_point_data);
+    // Coordinates are `offset + scale * integer`: a zero scale puts every point at the
+    // offset (a cloud of one point, however many records), a NaN one nowhere.
+    for (axis, scale, offset) in [
+        ("x", raw.x_scale_factor, raw.x_offset),
+        ("y", raw.y_scale_factor, raw.y_offset),
+        ("z", raw.z_scale_factor, raw.z_offset),
+    ] {
+        if scale == 0.0 || !scale.is_finite() || !offset.is_finite() {
+            return Err(malformed(
+                path,
+                "header",
+                format!(
+                    "{axis} scale factor {scale} and offset {offset}: the scale must be a finite non-zero number and the offset finite"
+                ),
+            ));
+        }
+    }
     if record_len < 20 {
         return Err(malformed(path, "header", format!("point record length {record_len} is below the minimum of 20")));
     }
@@ -146,8 +163,7 @@ fn check_header(path: &Path, file: &mut File, file_len: u64) -> Result<(), Forma
 
 /// Reads a LAS or LAZ file.
 pub(crate) fn read_las(path: &Path, options: &PointReadOptions) -> Result<PointCloud, FormatError> {
-    let mut file = File::open(path).map_err(|e| FormatError::io(path, e))?;
-    let file_len = file.metadata().map_err(|e| FormatError::io(path, e))?.len();
+    let (mut file, file_len) = crate::files::open(path, None)?;
     check_header(path, &mut file, file_len)?;
     let mut reader = Reader::new(BufReader::new(file)).map_err(|e| las_error(path, "header", e))?;
     let header = reader.header();

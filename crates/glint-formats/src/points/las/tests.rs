@@ -154,10 +154,15 @@ fn damaged_files_fail_cleanly_naming_the_file() {
     patch(&path, 235, &(len - 30).to_le_bytes());
     patch(&path, 243, &1u32.to_le_bytes());
     check("extended VLR");
-    // A NaN x offset (byte 155) makes every coordinate NaN.
+    // A NaN x offset (byte 155) would make every coordinate NaN.
     write(&path, (1, 2), 3, &POINTS);
     patch(&path, 155, &f64::NAN.to_le_bytes());
-    check("point 0: a coordinate is NaN");
+    check("header: x scale factor 0.01 and offset NaN");
+    // A zero scale (byte 139: y) would put every point at the offset: a cloud of one point
+    // that took 40 s to estimate normals for (issue 20, defect 5).
+    write(&path, (1, 2), 3, &POINTS);
+    patch(&path, 139, &0f64.to_le_bytes());
+    check("header: y scale factor 0 and offset");
     // Not a LAS file at all.
     std::fs::write(&path, b"ply\nformat ascii 1.0\n").unwrap();
     check("header");

@@ -1,0 +1,9 @@
+#![no_main]
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let path = glint_fuzz::file("f.ply", data);
+    if let Err(e) = glint_formats::load(&path) {
+        glint_fuzz::check_error(&path, &e);
+    }
+});
