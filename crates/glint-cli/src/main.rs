@@ -13,6 +13,7 @@ use std::process::ExitCode;
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
+    glint_core::memory::install(glint_image::memory::system_budget(args.max_memory));
     match commands::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

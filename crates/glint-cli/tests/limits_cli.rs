@@ -1,0 +1,155 @@
+//! Limits end to end (issue 20; docs/limits.md): the memory budget refuses what does not fit
+//! instead of aborting, no output holds a non-finite value however bright the scene, and
+//! negative numbers on the command line are read as values.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)] // test code: a failure is the report
+
+mod common;
+
+use common::{assert_fails_cleanly, glint, scratch, stderr};
+use std::path::Path;
+use std::process::{Command, Output};
+
+/// One triangle in front of the default camera.
+fn write_triangle(dir: &Path) {
+    std::fs::write(dir.join("tri.obj"), "v -1 -1 -3\nv 1 -1 -3\nv 0 1 -3\nf 1 2 3\n").unwrap();
+}
+
+/// `glint args` under `ulimit -v kib` (the address-space limit, RLIMIT_AS).
+fn glint_under_ulimit(kib: u64, args: &[&str], dir: &Path) -> Output {
+    let bin = env!("CARGO_BIN_EXE_glint");
+    let script = format!("ulimit -v {kib} && exec \"$0\" \"$@\"");
+    Command::new("sh").arg("-c").arg(script).arg(bin).args(args).current_dir(dir).output().expect("sh runs")
+}
+
+/// A clean refusal: exit code 1 (not 134, the abort of a failed allocation, nor a signal) and
+/// a message containing every needle.
+fn assert_refused(o: &Output, needles: &[&str]) {
+    let msg = stderr(o);
+    assert_eq!(o.status.code(), Some(1), "expected a clean error, got {:?}: {msg}", o.status);
+    assert!(!msg.contains("panicked") && !msg.contains("memory allocation"), "{msg}");
+    for n in needles {
+        assert!(msg.contains(n), "message does not say {n:?}: {msg}");
+    }
+}
+
+#[test]
+fn a_film_larger_than_max_memory_is_refused_with_what_it_needs() {
+    let d = scratch("limits-max-memory");
+    write_triangle(&d);
+    std::fs::write(d.join("out.png"), b"precious").unwrap();
+    for mode in ["whitted", "path"] {
+        let args =
+            ["--max-memory", "100M", "render", "tri.obj", "--mode", mode, "--width", "32768", "--height", "4096"];
+        let o = glint(&[&args[..], &["-o", "out.png"]].concat(), &d);
+        assert_refused(&o, &["32768 x 4096", "GiB", "memory budget of 100.00 MiB", "--max-memory"]);
+        assert_eq!(std::fs::read(d.join("out.png")).unwrap(), b"precious");
+    }
+    // The option itself is checked.
+    assert_fails_cleanly(&["--max-memory", "lots", "render", "-o", "out.png"], "--max-memory", &d);
+}
+
+#[test]
+fn a_film_larger_than_ulimit_v_is_refused_not_aborted() {
+    let d = scratch("limits-ulimit");
+    write_triangle(&d);
+    // 1.5 GiB of address space: enough to start, far from the 16 GiB frame.
+    let args = ["render", "tri.obj", "--mode", "whitted", "--width", "32768", "--height", "4096", "-o", "out.png"];
+    let o = glint_under_ulimit(1_572_864, &args, &d);
+    assert_refused(&o, &["32768 x 4096", "ulimit -v"]);
+    assert!(!d.join("out.png").exists());
+    // A frame that fits renders under the same limit.
+    let o = glint_under_ulimit(1_572_864, &["render", "tri.obj", "--width", "64", "--height", "48", "-q"], &d);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// Six `n`² PNG faces of one colour (continuous at every edge) in `dir/sky`.
+fn write_flat_faces(dir: &Path, n: u32) {
+    let sky = dir.join("sky");
+    std::fs::create_dir_all(&sky).unwrap();
+    let face = glint_image::Image::from_rgb(n, n, &vec![[0.1, 0.2, 0.5]; (n * n) as usize]);
+    for name in ["px", "nx", "py", "ny", "pz", "nz"] {
+        glint_image::write_png(&sky.join(format!("{name}.png")), &face, &glint_image::PngOptions::default()).unwrap();
+    }
+}
+
+#[test]
+fn sky_faces_larger_than_the_budget_are_refused_before_decoding() {
+    let d = scratch("limits-sky");
+    write_triangle(&d);
+    write_flat_faces(&d, 2048);
+    // Six 2048² faces keep about 450 MiB once read: refused under 100 MiB.
+    let args = ["--max-memory", "100M", "render", "tri.obj", "--sky", "sky", "--width", "32", "--height", "24"];
+    let o = glint(&[&args[..], &["-o", "out.png"]].concat(), &d);
+    assert_refused(&o, &["six sky faces", "memory budget of 100.00 MiB"]);
+    // Under 700 MiB they fit when decoded one after another (not all six at once) and render.
+    let args = ["--max-memory", "700M", "render", "tri.obj", "--sky", "sky", "--width", "32", "--height", "24"];
+    let o = glint(&[&args[..], &["-o", "out.png", "-q"]].concat(), &d);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// A diffuse floor under an emitting sphere of radiance `emission` per channel.
+fn write_bright_scene(dir: &Path, emission: &str) {
+    let scene = format!(
+        "[image]\nwidth = 48\nheight = 32\n\n[camera]\nposition = [0.0, 1.5, 5.0]\nlook_at = [0.0, 0.5, 0.0]\nfov = 45\n\n\
+         [[material]]\nname = \"lamp\"\nemission = [{emission}, {emission}, {emission}]\n\n\
+         [[material]]\nname = \"floor\"\ncolour = [0.7, 0.7, 0.7]\n\n\
+         [[object]]\ntype = \"plane\"\nnormal = [0.0, 1.0, 0.0]\noffset = 0.0\nmaterial = \"floor\"\n\n\
+         [[object]]\ntype = \"sphere\"\ncentre = [0.0, 1.0, 0.0]\nradius = 0.5\nmaterial = \"lamp\"\n"
+    );
+    std::fs::write(dir.join("bright.toml"), scene).unwrap();
+}
+
+#[test]
+fn no_output_holds_a_non_finite_value_however_bright_the_emitter() {
+    let d = scratch("limits-bright");
+    for emission in ["1e37", "3e38"] {
+        write_bright_scene(&d, emission);
+        for filter in ["none", "guided", "bilateral", "atrous"] {
+            for (mode, out) in [("path", "out.exr"), ("path", "out.png"), ("whitted", "out.exr")] {
+                let args = ["render", "bright.toml", "--mode", mode, "--filter", filter, "--spp", "4", "-o", out];
+                let o = glint(&args, &d);
+                let msg = stderr(&o);
+                assert!(o.status.success(), "{emission} {mode} {filter}: {msg}");
+                let image = glint_image::read_image(&d.join(out)).unwrap();
+                for c in &image.channels {
+                    // Z is +inf where nothing was hit, by definition (docs/aovs.md).
+                    if c.name == "Z" {
+                        assert!(c.data.iter().all(|v| !v.is_nan()), "{emission} {mode} {filter}: NaN depth");
+                        continue;
+                    }
+                    let bad = c.data.iter().filter(|v| !v.is_finite()).count();
+                    assert_eq!(bad, 0, "{emission} {mode} {filter} {out}: {bad} non-finite values in {}", c.name);
+                }
+                if mode == "path" {
+                    // The clamp is counted, not hidden.
+                    assert!(msg.contains("clamped to it"), "{emission} {filter}: {msg}");
+                }
+                if mode == "whitted" {
+                    break; // Whitted has no filter.
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn negative_numbers_are_values_not_flags() {
+    let d = scratch("limits-negative");
+    write_triangle(&d);
+    let o = glint(
+        &["render", "tri.obj", "--eye", "-1,0.5,2", "--look-at", "0,0,-3", "--width", "16", "--height", "12", "-q"],
+        &d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    std::fs::write(d.join("out.png"), b"precious").unwrap();
+    for (args, needle) in [
+        (&["render", "tri.obj", "--spp", "-1", "-o", "out.png"][..], "-1 is negative"),
+        (&["render", "tri.obj", "--width", "-16", "-o", "out.png"][..], "--width"),
+    ] {
+        let o = glint(args, &d);
+        let msg = stderr(&o);
+        assert_fails_cleanly(args, needle, &d);
+        assert!(!msg.contains("-- -1"), "the suggested fix is wrong: {msg}");
+    }
+}
