@@ -153,3 +153,49 @@ fn negative_numbers_are_values_not_flags() {
         assert!(!msg.contains("-- -1"), "the suggested fix is wrong: {msg}");
     }
 }
+
+#[test]
+fn duplicate_triangles_are_merged_with_a_warning() {
+    let d = scratch("limits-duplicates");
+    let mut obj = String::from("v -1 -1 -3\nv 1 -1 -3\nv 0 1 -3\nv 0 0 -4\n");
+    obj.push_str(&"f 1 2 3\n".repeat(20_000));
+    obj.push_str("f 2 3 1\nf 1 3 2\nf 1 2 4\n"); // a rotation (a copy), the back face and another
+    std::fs::write(d.join("dup.obj"), obj).unwrap();
+    let o = glint(&["render", "dup.obj", "--width", "160", "--height", "120", "-o", "out.png"], &d);
+    let msg = stderr(&o);
+    assert!(o.status.success(), "{msg}");
+    assert!(msg.contains("dup.obj: dropped 20000 duplicate triangles"), "{msg}");
+    assert!(msg.contains("3 triangles"), "{msg}");
+}
+
+#[test]
+fn messages_name_the_real_cause() {
+    let d = scratch("limits-messages");
+    std::fs::write(d.join("out.png"), b"precious").unwrap();
+    // A cube scaled by 1e30: not "zero area".
+    let mut cube = String::new();
+    for x in [-1e30, 1e30] {
+        for y in [-1e30, 1e30] {
+            for z in [-1e30, 1e30] {
+                cube.push_str(&format!("v {x:e} {y:e} {z:e}\n"));
+            }
+        }
+    }
+    cube.push_str("f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n");
+    std::fs::write(d.join("huge.obj"), cube).unwrap();
+    // One vertex far away: not "light #0: position must be finite" nor a camera message.
+    std::fs::write(d.join("far.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 3e38 -3e38 0\nf 1 2 3\nf 2 3 4\n").unwrap();
+    for (file, needle) in [("huge.obj", "vertex 1 of mesh \"huge\" is at (-1e30"), ("far.obj", "vertex 4")] {
+        let args = ["render", file, "-o", "out.png"];
+        assert_fails_cleanly(&args, needle, &d);
+        let msg = stderr(&glint(&args, &d));
+        assert!(msg.contains("coordinates within ±1e18"), "{msg}");
+        assert!(!msg.contains("zero area") && !msg.contains("must be finite"), "{msg}");
+    }
+    // An OS error is printed once, not in the context and again as its source.
+    write_triangle(&d);
+    let o = glint(&["render", "tri.obj", "-o", "no-such-folder/out.png"], &d);
+    let msg = stderr(&o);
+    assert!(!o.status.success());
+    assert_eq!(msg.matches("(os error 2)").count(), 1, "{msg}");
+}
