@@ -447,6 +447,16 @@ pub struct SkyArgs {
     /// Take the ambient light from the sky (its irradiance by surface normal).
     #[arg(long = "sky-ambient")]
     pub sky_ambient: bool,
+    /// What to do when the faces of --sky do not meet at their edges: `none` warns with the
+    /// fix (`[sky.face.ny] rotate = 180`, ...), `auto` applies it and says which it applied.
+    #[arg(long = "sky-fix", value_enum, value_name = "HOW")]
+    pub sky_fix: Option<SkyFixArg>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SkyFixArg {
+    None,
+    Auto,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

@@ -199,3 +199,38 @@ fn messages_name_the_real_cause() {
     assert!(!o.status.success());
     assert_eq!(msg.matches("(os error 2)").count(), 1, "{msg}");
 }
+
+#[test]
+fn a_sky_face_turned_alone_is_found_and_fixed_with_sky_fix_auto() {
+    let d = scratch("limits-sky-turned");
+    write_triangle(&d);
+    // A continuous cube map: a smooth lat-long map converted to six EXR faces (lossless).
+    glint_image::write_exr(&d.join("ll.exr"), &glint_testkit::skies::smooth_latlong(128)).unwrap();
+    let o = glint(&["sky", "convert", "ll.exr", "faces", "--to", "faces", "--size", "32"], &d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let render = |sky: &str, out: &str, extra: &[&str]| {
+        let args = [&["render", "tri.obj", "--sky", sky, "--width", "32", "--height", "24", "-o", out][..], extra];
+        let o = glint(&args.concat(), &d);
+        assert!(o.status.success(), "{}", stderr(&o));
+        stderr(&o)
+    };
+    let plain = render("faces", "a.exr", &[]);
+    assert!(!plain.contains("do not meet"), "{plain}");
+    // The down face turned 180° against glint's convention, as some skybox packs store it.
+    std::fs::create_dir_all(d.join("turned")).unwrap();
+    for name in ["px", "nx", "py", "ny", "pz", "nz"] {
+        let mut face = glint_image::read_image(&d.join(format!("faces/{name}.exr"))).unwrap();
+        if name == "ny" {
+            for c in &mut face.channels {
+                c.data.reverse(); // a half turn of a row-major image
+            }
+        }
+        glint_image::write_exr(&d.join(format!("turned/{name}.exr")), &face).unwrap();
+    }
+    let warned = render("turned", "b.exr", &[]);
+    assert!(warned.contains("[sky.face.ny] rotate = 180") && warned.contains("--sky-fix auto"), "{warned}");
+    let fixed = render("turned", "c.exr", &["--sky-fix", "auto"]);
+    assert!(fixed.contains("applied the fix"), "{fixed}");
+    assert_eq!(std::fs::read(d.join("c.exr")).unwrap(), std::fs::read(d.join("a.exr")).unwrap());
+    assert_ne!(std::fs::read(d.join("b.exr")).unwrap(), std::fs::read(d.join("a.exr")).unwrap());
+}

@@ -1,7 +1,7 @@
 //! `glint render`: load, apply command-line overrides, render, write atomically.
 
 use super::points;
-use crate::cli::{FilterArg, FilterOptions, FlipArg, GuideArg, RenderArgs, SkyArgs};
+use crate::cli::{FilterArg, FilterOptions, FlipArg, GuideArg, RenderArgs, SkyArgs, SkyFixArg};
 use crate::input::{self, parse_vec3};
 use crate::progress::LazyProgress;
 use anyhow::{Context, Result, bail};
@@ -111,6 +111,7 @@ fn apply_sky(scene: &mut Scene, args: &SkyArgs, input: Option<&Path>) -> Result<
             },
             rotation_degrees: args.sky_rotation.unwrap_or(0.0),
             intensity: args.sky_intensity.unwrap_or(1.0),
+            auto_fix: args.sky_fix == Some(SkyFixArg::Auto),
             ..SkyLoadOptions::default()
         };
         let loaded = load_sky(&SkySource::Path(path.clone()), &options).context("--sky")?;
@@ -126,6 +127,9 @@ fn apply_sky(scene: &mut Scene, args: &SkyArgs, input: Option<&Path>) -> Result<
     } else {
         if args.sky_flip.is_some() {
             bail!("--sky-flip applies to the images of --sky PATH");
+        }
+        if args.sky_fix.is_some() {
+            bail!("--sky-fix applies to the images of --sky PATH (a scene's sky takes [sky.face.*] keys)");
         }
         let (rotation, intensity) = (args.sky_rotation, args.sky_intensity);
         match &mut scene.sky {

@@ -54,6 +54,9 @@ pub struct SkyLoadOptions {
     pub rotation_degrees: f32,
     /// Scale of the radiance.
     pub intensity: f32,
+    /// Apply the fix the seam check finds (a flip of every face, or a flip or turn of single
+    /// faces) instead of only suggesting it (`--sky-fix auto`).
+    pub auto_fix: bool,
 }
 
 impl Default for SkyLoadOptions {
@@ -63,6 +66,7 @@ impl Default for SkyLoadOptions {
             per_face: [FaceTransform::IDENTITY; 6],
             rotation_degrees: 0.0,
             intensity: 1.0,
+            auto_fix: false,
         }
     }
 }
@@ -202,9 +206,21 @@ pub fn load_sky_texels(source: &SkySource, options: &SkyLoadOptions) -> Result<L
         transforms.iter().filter(|t| !t.is_identity()).fold(face, |face, t| t.apply(&face))
     });
     CubeMap::check_faces(&faces).map_err(|source| FormatError::Invalid { file: about.clone(), source })?;
-    if let Some(warning) = seam_warning(&faces, options) {
+    let (warning, fix) = seam_warning(&faces, options);
+    if let Some(warning) = warning {
         warnings.push(format!("{}: {warning}", about.display()));
     }
+    let faces = match fix {
+        Some(fix) if options.auto_fix => {
+            let mut index = 0;
+            faces.map(|face| {
+                let transforms = [fix.all_faces, fix.per_face[index]];
+                index += 1;
+                transforms.iter().filter(|t| !t.is_identity()).fold(face, |face, t| t.apply(&face))
+            })
+        }
+        _ => faces,
+    };
     Ok(LoadedTexels { texels: SkyTexels::Faces(faces), layout, files, about, warnings })
 }
 
@@ -223,16 +239,25 @@ fn check_options(path: &Path, options: &SkyLoadOptions) -> Result<(), FormatErro
     Ok(())
 }
 
-/// The warning for faces that do not meet, with the fix when a simple one exists.
-fn seam_warning(faces: &[TextureImage; 6], options: &SkyLoadOptions) -> Option<String> {
-    let (score, fix) = seam::diagnose(faces)?;
+/// The warning for faces that do not meet, with the fix when a simple one exists (applied by
+/// the caller when `options.auto_fix`).
+fn seam_warning(faces: &[TextureImage; 6], options: &SkyLoadOptions) -> (Option<String>, Option<seam::SeamFix>) {
+    let Some((score, fix)) = seam::diagnose(faces) else { return (None, None) };
     if score <= seam::MISMATCHED {
-        return None;
+        return (None, None);
     }
     let given = if options.has_face_transforms() { " with the flips and turns given" } else { "" };
-    Some(match fix {
+    let warning = match &fix {
+        Some(fix) if options.auto_fix => format!(
+            "faces do not meet at their edges{given} (seam score {score:.1}); applied the fix (--sky-fix auto): {} \
+             ({:.1}); to keep it in a scene: {}",
+            fix.describe(),
+            fix.score,
+            fix.toml()
+        ),
         Some(fix) => format!(
-            "faces do not meet at their edges{given} (seam score {score:.1}); {} they would ({:.1}): {}",
+            "faces do not meet at their edges{given} (seam score {score:.1}); {} they would ({:.1}): {}; or \
+             render with --sky-fix auto",
             fix.describe(),
             fix.score,
             fix.toml()
@@ -241,7 +266,8 @@ fn seam_warning(faces: &[TextureImage; 6], options: &SkyLoadOptions) -> Option<S
             "faces do not meet at their edges{given} (seam score {score:.1}, about 1 is expected) and no flip \
              or quarter turn fixes it: check which file is which face (docs/skies.md)"
         ),
-    })
+    };
+    (Some(warning), fix)
 }
 
 fn bad_aspect(path: &Path, width: u32, height: u32) -> FormatError {
