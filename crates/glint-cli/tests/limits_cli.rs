@@ -234,3 +234,27 @@ fn a_sky_face_turned_alone_is_found_and_fixed_with_sky_fix_auto() {
     assert_eq!(std::fs::read(d.join("c.exr")).unwrap(), std::fs::read(d.join("a.exr")).unwrap());
     assert_ne!(std::fs::read(d.join("b.exr")).unwrap(), std::fs::read(d.join("a.exr")).unwrap());
 }
+
+/// The commands of docs/limits-render.md, as written: each refused or rendered as its comment
+/// says (`model.obj` is one triangle).
+#[test]
+fn the_commands_of_the_limits_docs_run() {
+    let d = scratch("limits-docs");
+    std::fs::write(d.join("model.obj"), "v -1 -1 -3\nv 1 -1 -3\nv 0 1 -3\nf 1 2 3\n").unwrap();
+    let doc = std::fs::read_to_string(glint_testkit::repo().join("docs/limits-render.md")).unwrap();
+    let block = &doc[doc.find("```sh").expect("a command block") + 5..];
+    let block = &block[..block.find("```").unwrap()];
+    let mut ran = 0;
+    for line in block.lines().filter(|l| l.starts_with("glint ")) {
+        let (command, outcome) = line.split_once('#').unwrap();
+        let args: Vec<&str> = command.split_whitespace().skip(1).collect();
+        let o = glint(&args, &d);
+        match outcome.trim() {
+            "refused" => assert_refused(&o, &["memory budget", "--max-memory"]),
+            "fits" => assert!(o.status.success(), "{line}: {}", stderr(&o)),
+            other => panic!("{line}: unknown outcome {other:?}"),
+        }
+        ran += 1;
+    }
+    assert_eq!(ran, 2);
+}

@@ -253,7 +253,11 @@ impl SeamFix {
         }
         for face in CubeFace::ALL {
             let t = self.per_face[face.index()];
-            if !t.is_identity() {
+            if t.flip_horizontal && t.flip_vertical {
+                // Flipped both ways is a half turn (as `toml` says it).
+                let turn = FaceTransform::rotate((t.rotate_degrees + 180) % 360);
+                parts.push(format!("{} {}", face.short_name(), turn.describe()));
+            } else if !t.is_identity() {
                 parts.push(format!("{} {}", face.short_name(), t.describe()));
             }
         }
@@ -303,6 +307,11 @@ pub(crate) fn diagnose(faces: &[TextureImage; 6]) -> Option<(f32, Option<SeamFix
         best.score = overall(&combined(&best));
     }
     let fixed = best.score <= MATCHED && best.score < score * 0.5;
+    if !fixed && set_score <= MISMATCHED {
+        // One odd face that no flip or turn explains (a plain `down` face, a logo): not a
+        // convention problem, and the set as a whole meets.
+        return Some((set_score, None));
+    }
     Some((score, fixed.then_some(best)))
 }
 
@@ -415,6 +424,14 @@ mod tests {
             let fixed = transformed(&turned, fix.per_face);
             assert_eq!(diagnose(&fixed).expect("square").1, None);
         }
+    }
+
+    #[test]
+    fn a_plain_face_is_not_a_turned_face() {
+        let mut faces = smooth_faces(32);
+        faces[3].texels.fill(Rgb::new(0.2, 0.2, 0.2));
+        let (score, fix) = diagnose(&faces).expect("square");
+        assert!(score <= MISMATCHED && fix.is_none(), "{score} {fix:?}");
     }
 
     #[test]
