@@ -74,7 +74,10 @@ impl Mesh {
     /// its index.
     #[must_use]
     pub fn first_out_of_range_vertex(&self) -> Option<(usize, Vec3)> {
-        self.positions.iter().position(|p| !(p.abs().max_element() <= MAX_COORDINATE)).map(|i| (i, self.positions[i]))
+        self.positions
+            .iter()
+            .position(|p| !p.is_finite() || p.abs().max_element() > MAX_COORDINATE)
+            .map(|i| (i, self.positions[i]))
     }
 
     fn retain_triangles(&mut self, keep: &[bool]) -> usize {
