@@ -17,6 +17,24 @@ use std::path::PathBuf;
 pub struct Cli {
     #[command(subcommand)]
     pub command: Option<Command>,
+    /// Memory budget, e.g. 512M or 4G: larger buffers (film, sky, images, trees) are refused
+    /// with an error instead of being allocated. The budget is the smallest of this, the
+    /// physical RAM, `ulimit -v` and the cgroup's limit (docs/limits.md).
+    #[arg(long = "max-memory", value_name = "SIZE", global = true, value_parser = parse_memory_size)]
+    pub max_memory: Option<u64>,
+}
+
+fn parse_memory_size(text: &str) -> Result<u64, String> {
+    glint_core::memory::parse_size(text)
+}
+
+/// A count or size option: a negative number is read as a value (not as another flag) and
+/// refused with what the option takes.
+fn unsigned<T: std::str::FromStr>(text: &str) -> Result<T, String> {
+    if text.trim_start().starts_with('-') {
+        return Err(format!("{text} is negative; this option takes a whole number (0, 1, 2, ...)"));
+    }
+    text.parse().map_err(|_| format!("{text:?} is not a whole number"))
 }
 
 /// A group of options as an empty command line gives it: clap's documented defaults, the one
@@ -80,16 +98,16 @@ pub struct SceneArgs {
 #[derive(Args, Debug, Clone)]
 pub struct CameraArgs {
     /// Camera position "X,Y,Z" (overrides the scene's camera).
-    #[arg(long, value_name = "X,Y,Z")]
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub eye: Option<String>,
     /// Point the camera looks at "X,Y,Z".
-    #[arg(long = "look-at", value_name = "X,Y,Z")]
+    #[arg(long = "look-at", value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub look_at: Option<String>,
     /// Up direction "X,Y,Z".
-    #[arg(long, value_name = "X,Y,Z")]
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub up: Option<String>,
     /// Vertical field of view in degrees.
-    #[arg(long, value_name = "DEG")]
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
     pub fov: Option<f32>,
 }
 
@@ -100,9 +118,9 @@ pub struct RenderArgs {
     /// Output image: .png (tone-mapped sRGB) or .exr (linear float, with AOVs).
     #[arg(short, long, default_value = "glint.png")]
     pub output: PathBuf,
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub width: Option<u32>,
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub height: Option<u32>,
     /// Render only pixels x0..x1, y0..y1 of the frame (pbrt's --pixelbounds): the output is
     /// that window, its pixels exactly the whole frame's (same rays, same random numbers);
@@ -111,7 +129,7 @@ pub struct RenderArgs {
     pub crop: Option<String>,
     /// Samples per pixel. Whitted: a square number (N×N stratified supersampling): 1, 4, 9,
     /// 16, ...; path: any number (per pass with --time).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub spp: Option<u32>,
     /// Rendering mode: whitted (ray tracing, Phong), path (path tracing, indirect light
     /// filtered) or points (point clouds, pull-push). Default: the scene's `[render] mode`, else
@@ -125,17 +143,17 @@ pub struct RenderArgs {
     #[command(flatten)]
     pub scene: SceneArgs,
     /// Worker threads (default: every core).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub threads: Option<usize>,
     /// Seed of every random number in the render.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = unsigned::<u64>)]
     pub seed: u64,
     /// Show the scene's animations at this time, in seconds (default 0; see --time for the
     /// path tracer's time budget).
     #[arg(long = "scene-time", value_name = "SECONDS", allow_hyphen_values = true)]
     pub scene_time: Option<f32>,
     /// Maximum ray depth (reflection/refraction bounces).
-    #[arg(long = "max-depth")]
+    #[arg(long = "max-depth", allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub max_depth: Option<u32>,
     /// Exposure in stops (PNG output).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
@@ -203,7 +221,7 @@ pub struct PointArgs {
     #[arg(long, value_enum, default_value = "ellipses")]
     pub fill: FillArg,
     /// Side of the squares of --fill squares, in pixels.
-    #[arg(long = "square-size", default_value_t = 3)]
+    #[arg(long = "square-size", default_value_t = 3, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub square_size: u32,
     /// Shading: auto (phong with normals, edl without), phong, edl (eye-dome lighting), flat.
     #[arg(long, value_enum, default_value = "auto")]
@@ -219,7 +237,7 @@ pub struct PointArgs {
     #[arg(long = "colour-by", value_parser = parse_colour_by, default_value = "auto")]
     pub colour_by: ColourBy,
     /// Neighbours for normal and radius estimation of clouds without them.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = 16, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub neighbours: usize,
     /// Scale of the point radii (estimated or given).
     #[arg(long = "radius-scale", default_value_t = 1.0, allow_hyphen_values = true)]
@@ -286,13 +304,13 @@ pub struct SampleArgs {
     /// Mesh file (.obj, .ply, .gltf, .glb).
     pub mesh: PathBuf,
     /// Number of points.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub count: usize,
     /// Output point cloud (.ply).
     #[arg(short, long)]
     pub output: PathBuf,
     /// Seed of the sample positions.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = unsigned::<u64>)]
     pub seed: u64,
     /// Print no summary.
     #[arg(long, short)]
@@ -353,7 +371,7 @@ pub struct FilterOptions {
     pub guide: GuideArg,
     /// Window radius in pixels (guided, bilateral; default: scaled with the image width, 28 at
     /// 1024 pixels).
-    #[arg(long, value_name = "PX")]
+    #[arg(long, value_name = "PX", allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub radius: Option<usize>,
     /// Guided filter: regularisation of the normal channels.
     #[arg(long = "eps-normal", value_name = "X", allow_hyphen_values = true)]
@@ -362,7 +380,7 @@ pub struct FilterOptions {
     #[arg(long = "eps-depth", value_name = "X", allow_hyphen_values = true)]
     pub eps_depth: Option<f32>,
     /// A-Trous: iterations (steps 1, 2, 4, ...).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub iterations: Option<u32>,
 }
 
@@ -374,14 +392,14 @@ pub struct PathArgs {
     #[arg(long, value_enum)]
     pub filter: Option<FilterArg>,
     /// Path mode: indirect bounces (0 = direct light only).
-    #[arg(long = "max-bounces", value_name = "N")]
+    #[arg(long = "max-bounces", value_name = "N", allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub max_bounces: Option<u32>,
     /// Path mode: render passes of --spp samples until this many seconds are spent.
     #[arg(long, value_name = "SECONDS", allow_hyphen_values = true)]
     pub time: Option<f64>,
     /// Path mode: passes of --spp samples each (each filtered with its own guide rays, then
     /// averaged); --time may add more.
-    #[arg(long, value_name = "N", default_value_t = 1)]
+    #[arg(long, value_name = "N", default_value_t = 1, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub passes: u32,
     /// Path mode: firefly clamp — the largest indirect radiance one sample may bring (biased;
     /// off by default).
@@ -408,7 +426,7 @@ pub struct FilterArgs {
     pub filter: FilterArg,
     #[command(flatten)]
     pub filter_options: FilterOptions,
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub threads: Option<usize>,
     /// Print no summary.
     #[arg(long, short)]
@@ -434,6 +452,16 @@ pub struct SkyArgs {
     /// Take the ambient light from the sky (its irradiance by surface normal).
     #[arg(long = "sky-ambient")]
     pub sky_ambient: bool,
+    /// What to do when the faces of --sky do not meet at their edges: `none` warns with the
+    /// fix (`[sky.face.ny] rotate = 180`, ...), `auto` applies it and says which it applied.
+    #[arg(long = "sky-fix", value_enum, value_name = "HOW")]
+    pub sky_fix: Option<SkyFixArg>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SkyFixArg {
+    None,
+    Auto,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -487,25 +515,25 @@ pub struct BenchPathArgs {
     /// Scene or model file.
     pub scene: PathBuf,
     /// Samples per pixel per frame (one path each).
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = 16, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub spp: u32,
     /// Image size; default: the scene's.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub width: Option<u32>,
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub height: Option<u32>,
     /// Indirect bounces; default: the scene's.
-    #[arg(long = "max-bounces")]
+    #[arg(long = "max-bounces", allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub max_bounces: Option<u32>,
     /// Filter of the indirect light (none: plain path tracing, the throughput measure).
     #[arg(long, value_enum, default_value = "none")]
     pub filter: FilterArg,
     /// Timed frames (the median is reported).
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 5, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub frames: usize,
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = unsigned::<u64>)]
     pub seed: u64,
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub threads: Option<usize>,
     /// Path tracer(s) to time, comma-separated: wavefront (breadth first, rays eight at a
     /// time), recursive (depth first, one sample after another). Frames of several kernels are
@@ -534,20 +562,20 @@ pub struct BenchViewArgs {
     /// Scene, model or point cloud; omitted: the built-in demo scene.
     pub input: Option<PathBuf>,
     /// Frames of the orbit (one full turn).
-    #[arg(long, default_value_t = 60)]
+    #[arg(long, default_value_t = 60, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub frames: usize,
     /// whitted, path or points; default: the scene's mode.
     #[arg(long, value_enum)]
     pub mode: Option<ModeArg>,
-    #[arg(long, default_value_t = 1280)]
+    #[arg(long, default_value_t = 1280, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub width: u32,
-    #[arg(long, default_value_t = 720)]
+    #[arg(long, default_value_t = 720, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub height: u32,
     /// Path mode: samples per pixel per frame.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub spp: u32,
     /// Path mode: indirect bounces.
-    #[arg(long = "max-bounces", default_value_t = 1)]
+    #[arg(long = "max-bounces", default_value_t = 1, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub max_bounces: u32,
     /// Path mode: filter of the indirect light.
     #[arg(long, value_enum, default_value = "guided")]
@@ -559,7 +587,7 @@ pub struct BenchViewArgs {
     /// at full size).
     #[arg(long)]
     pub adaptive: bool,
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub threads: Option<usize>,
 }
 
@@ -578,12 +606,12 @@ pub struct BenchPointsArgs {
     #[arg(long, default_value = "full")]
     pub fills: String,
     /// Timed frames per setting (the median is reported).
-    #[arg(long, default_value_t = 21)]
+    #[arg(long, default_value_t = 21, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub reps: usize,
     /// Write each first frame as PNG into this folder (the side-by-side figures).
     #[arg(long)]
     pub images: Option<PathBuf>,
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub threads: Option<usize>,
 }
 
@@ -592,14 +620,14 @@ pub struct BenchFiltersArgs {
     /// Folder of the shared test data (scenes/*.toml refer to models in it).
     #[arg(long, default_value = "../shared/data")]
     pub data: PathBuf,
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = 1024, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub width: u32,
-    #[arg(long, default_value_t = 768)]
+    #[arg(long, default_value_t = 768, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub height: u32,
     /// Timed runs per filter (the median is reported; bilateral runs at most 3).
-    #[arg(long, default_value_t = 11)]
+    #[arg(long, default_value_t = 11, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub reps: usize,
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub threads: Option<usize>,
 }
 
@@ -612,23 +640,23 @@ pub struct BenchGiArgs {
     #[arg(long)]
     pub scenes: Option<String>,
     /// Size of the timed frames (table 1).
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = 1024, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub width: u32,
-    #[arg(long, default_value_t = 768)]
+    #[arg(long, default_value_t = 768, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub height: u32,
     /// Timed frames per setting (the median is reported).
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 5, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub reps: usize,
     /// Size of the quality comparison (figure 8).
-    #[arg(long = "quality-width", default_value_t = 512)]
+    #[arg(long = "quality-width", default_value_t = 512, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub quality_width: u32,
-    #[arg(long = "quality-height", default_value_t = 384)]
+    #[arg(long = "quality-height", default_value_t = 384, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub quality_height: u32,
     /// Samples per pixel of the reference (cached in --out).
-    #[arg(long = "ref-spp", default_value_t = 1024)]
+    #[arg(long = "ref-spp", default_value_t = 1024, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub ref_spp: u32,
     /// Indirect bounces in the quality comparison.
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = 2, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub bounces: u32,
     /// Where references, images and the contact sheet go.
     #[arg(long, default_value = "target/bench-gi")]
@@ -637,7 +665,7 @@ pub struct BenchGiArgs {
     pub skip_times: bool,
     #[arg(long = "skip-quality")]
     pub skip_quality: bool,
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub threads: Option<usize>,
 }
 
@@ -648,22 +676,22 @@ pub struct BenchRaysArgs {
     pub scene: PathBuf,
     #[arg(long, value_enum, default_value = "primary")]
     pub kind: RayKind,
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub threads: Option<usize>,
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = 1024, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub width: u32,
-    #[arg(long, default_value_t = 768)]
+    #[arg(long, default_value_t = 768, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub height: u32,
     /// Timed passes over the rays (the median is reported).
-    #[arg(long, default_value_t = 7)]
+    #[arg(long, default_value_t = 7, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub reps: usize,
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = unsigned::<u64>)]
     pub seed: u64,
     /// Write PREFIX.tris.f32, PREFIX.rays.f32 and PREFIX.hits.f32 for the Embree scripts.
     #[arg(long)]
     pub dump: Option<PathBuf>,
     /// Split every triangle into 4^N before building (e.g. 2: the 100k dragon becomes 1.6 M).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub subdivide: u32,
 }
 
@@ -672,13 +700,13 @@ pub struct BenchWhittedArgs {
     /// Scene (default: scenes/whitted-bench.toml's embedded copy).
     #[arg(long)]
     pub scene: Option<PathBuf>,
-    #[arg(long, default_value_t = 1280)]
+    #[arg(long, default_value_t = 1280, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub width: u32,
-    #[arg(long, default_value_t = 720)]
+    #[arg(long, default_value_t = 720, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub height: u32,
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub threads: Option<usize>,
-    #[arg(long, default_value_t = 20)]
+    #[arg(long, default_value_t = 20, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub frames: usize,
     #[arg(long, value_enum, default_value = "stealing")]
     pub schedule: ScheduleArg,
@@ -729,7 +757,7 @@ pub struct SkyConvertArgs {
     pub to: SkyLayoutArg,
     /// Face edge (faces, crosses, strips) or height (lat-long, width twice that) in texels.
     /// Default: the input's face edge, or its height for a lat-long input.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub size: Option<u32>,
     /// Flip every input face first (sets stored upside down or mirrored).
     #[arg(long, value_enum)]
@@ -783,11 +811,11 @@ pub struct CompareArgs {
     #[arg(long, value_name = "VAR.exr")]
     pub ztest: Option<PathBuf>,
     /// A's samples per pixel for --ztest (default: the mean of its SampleCount channel).
-    #[arg(long, value_name = "N", requires = "ztest")]
+    #[arg(long, value_name = "N", requires = "ztest", allow_negative_numbers = true)]
     pub spp: Option<f64>,
     /// The reference's samples per pixel for --ztest: its own noise joins the test's
     /// variance (Mitsuba's references: 32000). Default: ignored.
-    #[arg(long = "reference-spp", value_name = "M", requires = "ztest")]
+    #[arg(long = "reference-spp", value_name = "M", requires = "ztest", allow_negative_numbers = true)]
     pub reference_spp: Option<f64>,
 }
 
@@ -807,9 +835,9 @@ pub struct ViewArgs {
     /// Scene, model or point cloud; omitted: the built-in demo scene.
     pub input: Option<PathBuf>,
     /// Window size in pixels.
-    #[arg(long, default_value_t = 1280)]
+    #[arg(long, default_value_t = 1280, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub width: u32,
-    #[arg(long, default_value_t = 720)]
+    #[arg(long, default_value_t = 720, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub height: u32,
     /// Starting mode; default: the scene's, points for a point cloud.
     #[arg(long, value_enum)]
@@ -819,23 +847,23 @@ pub struct ViewArgs {
     #[arg(long, value_enum)]
     pub filter: Option<FilterArg>,
     /// Path mode: samples per pixel per frame (keys - and =).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub spp: u32,
     /// Path mode: indirect bounces (keys [ and ]).
-    #[arg(long = "max-bounces", default_value_t = 1)]
+    #[arg(long = "max-bounces", default_value_t = 1, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub max_bounces: u32,
     /// Path mode: the paper's split — filter only the indirect light (by default the direct
     /// light of area lights and the sky is filtered too).
     #[arg(long = "paper-split")]
     pub paper_split: bool,
     /// Whitted: deepest reflection/refraction chain.
-    #[arg(long = "max-depth", default_value_t = 8)]
+    #[arg(long = "max-depth", default_value_t = 8, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub max_depth: u32,
     /// Camera control (key C switches).
     #[arg(long, value_enum, default_value = "orbit")]
     pub camera: CameraControlArg,
     /// Whitted passes / path samples per pixel after which a resting picture is final.
-    #[arg(long = "max-samples", default_value_t = 1024)]
+    #[arg(long = "max-samples", default_value_t = 1024, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub max_samples: u32,
     /// Draw at full resolution while the camera moves (default: lower it to keep 30 fps).
     #[arg(long = "fixed-resolution")]
@@ -844,7 +872,7 @@ pub struct ViewArgs {
     #[arg(long = "screenshot-dir", default_value = ".")]
     pub screenshot_dir: PathBuf,
     /// Close after this many frames (scripted runs).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<u64>)]
     pub frames: Option<u64>,
     /// On close, read the window back from the display and write it as PNG here.
     #[arg(long)]
@@ -853,8 +881,8 @@ pub struct ViewArgs {
     pub points: PointArgs,
     #[command(flatten)]
     pub scene: SceneArgs,
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = unsigned::<u64>)]
     pub seed: u64,
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub threads: Option<usize>,
 }

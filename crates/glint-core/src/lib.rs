@@ -1,7 +1,7 @@
 //! glint-core: the vocabulary every other crate speaks.
 //!
 //! Math (glam re-exported), rays, bounding boxes, floating-point error bounds, colour,
-//! orthonormal frames, sampling warps and hash-derived random streams. It sits at the bottom
+//! orthonormal frames, sampling warps and hash-derived random streams, and the memory budget large allocations are checked against. It sits at the bottom
 //! of the crate graph: no I/O, no threads, no unsafe, no dependency on any other glint crate.
 #![forbid(unsafe_code)]
 
@@ -10,6 +10,7 @@ pub mod chi2;
 pub mod colour;
 pub mod float;
 pub mod frame;
+pub mod memory;
 pub mod pixel_filter;
 pub mod random;
 pub mod ray;

@@ -108,6 +108,26 @@ pub(crate) fn finish_meshes(
     }
     let mut dropped_total = 0;
     for m in meshes.iter_mut() {
+        if let Some((i, p)) = m.first_out_of_range_vertex() {
+            let which = if m.name.is_empty() { String::new() } else { format!(" of mesh {:?}", m.name) };
+            return Err(FormatError::limits(
+                path,
+                format!(
+                    "vertex {}{which} is at ({:e}, {:e}, {:e}): glint takes coordinates within ±{:e} (the scene's \
+                     units can be scaled down)",
+                    i + 1,
+                    p.x,
+                    p.y,
+                    p.z,
+                    glint_scene::MAX_COORDINATE
+                ),
+            ));
+        }
+        let copies = m.remove_duplicate_triangles();
+        if copies > 0 {
+            let which = if m.name.is_empty() { String::new() } else { format!(" (mesh {:?})", m.name) };
+            warnings.push(format!("{name}: dropped {copies} duplicate triangles{which}"));
+        }
         let dropped = m.remove_degenerate_triangles();
         if dropped > 0 {
             dropped_total += dropped;

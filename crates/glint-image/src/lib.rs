@@ -49,6 +49,7 @@ mod atomic;
 pub mod error;
 mod exr_io;
 mod hdr_io;
+pub mod memory;
 pub mod metrics;
 mod planar;
 mod png_io;

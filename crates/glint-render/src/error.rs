@@ -13,4 +13,7 @@ pub enum RenderError {
     /// The caller cancelled the frame (its [`crate::Hooks::cancel`] flag).
     #[error("the render was cancelled")]
     Cancelled,
+    /// A buffer the frame needs is larger than the memory budget or the allocator refused it.
+    #[error(transparent)]
+    Memory(#[from] glint_core::memory::MemoryError),
 }

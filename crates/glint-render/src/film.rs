@@ -1,9 +1,17 @@
 //! The film: linear HDR beauty plus AOVs (normal, depth, albedo, coverage), one record per pixel
 //! so that a band of rows is one contiguous slice a thread can own.
 
+use glint_core::memory::{self, MemoryError};
 use glint_core::{Rgb, Vec3};
 use glint_image::Image;
 use rayon::prelude::*;
+
+/// The largest radiance one camera sample of any mode may carry, per channel (docs/limits.md). Brighter
+/// samples are clamped to it and counted: the filters square and sum radiance over windows
+/// of up to 2049² pixels, which stays finite in f32 below 1e15² · 4.2e6 ≈ 4e36 < 3.4e38, and a
+/// pixel's sum of 65 536 samples stays far below f32's range. No physical scene comes near it
+/// (the sun's radiance is about 1.6e9 W sr⁻¹ m⁻²).
+pub const MAX_SAMPLE_RADIANCE: f32 = 1e15;
 
 /// What one pixel accumulated. Colour is the box-filtered average of its samples; normal and
 /// albedo average over the samples that hit a surface, depth too (linear eye-space distance
@@ -60,26 +68,41 @@ pub struct Film {
 }
 
 impl Film {
+    /// A small film (tests, placeholders). Sizes that come from a user go through
+    /// [`Film::try_new`].
+    ///
+    /// # Panics
+    /// When the allocation fails.
     #[must_use]
     pub fn new(width: u32, height: u32) -> Self {
-        Self {
-            width,
-            height,
-            pixels: vec![FilmPixel::default(); width as usize * height as usize],
-            path_aovs: false,
-            variance: false,
-        }
+        Self::try_new(width, height).expect("a film small enough to allocate")
+    }
+
+    /// A `width × height` film, checked against the memory budget and allocated fallibly.
+    ///
+    /// # Errors
+    /// [`MemoryError`] naming the film's size when the budget or the allocator refuses it.
+    pub fn try_new(width: u32, height: u32) -> Result<Self, MemoryError> {
+        let what = || format!("the film of a {width} x {height} image ({} bytes per pixel)", size_of::<FilmPixel>());
+        let pixels = memory::try_filled(what, width as usize * height as usize, FilmPixel::default())?;
+        Ok(Self { width, height, pixels, path_aovs: false, variance: false })
     }
 
     /// Make this a `width × height` film for a new frame, reusing its memory when the size is
     /// the same: the pixels are left as they are (every mode writes each one), the path AOVs
     /// are off.
-    pub fn reset(&mut self, width: u32, height: u32) {
+    ///
+    /// # Errors
+    /// As [`Film::try_new`], when the size changes.
+    pub fn reset(&mut self, width: u32, height: u32) -> Result<(), MemoryError> {
         if (self.width, self.height) != (width, height) {
-            *self = Film::new(width, height);
+            // Free the old pixels first: both at once could be what does not fit.
+            *self = Film::try_new(0, 0)?;
+            *self = Film::try_new(width, height)?;
         }
         self.path_aovs = false;
         self.variance = false;
+        Ok(())
     }
 
     /// Take `other`'s pixel wherever it saw a surface nearer than this film's (both of one

@@ -23,7 +23,7 @@ mod world;
 
 pub use bands::{Hooks, Schedule};
 pub use error::RenderError;
-pub use film::{Film, FilmPixel};
+pub use film::{Film, FilmPixel, MAX_SAMPLE_RADIANCE};
 pub use frame::{Mode, ModeSettings, Picture, Renderer};
 pub use settings::{ImageSettings, WhittedKernel, WhittedSettings, Window};
 pub use stats::{BandStats, FrameStats, RayCounts};

@@ -31,6 +31,9 @@ pub struct BandStats {
     pub rays: RayCounts,
     /// Samples whose radiance was NaN or infinite (dropped, counted as black).
     pub rejected: u64,
+    /// Samples whose radiance exceeded the largest a sample may carry and was clamped to it
+    /// (path mode's `MAX_SAMPLE_RADIANCE`).
+    pub clamped: u64,
 }
 
 impl BandStats {
@@ -38,6 +41,7 @@ impl BandStats {
     pub fn merge(mut self, o: BandStats) -> BandStats {
         self.rays.add(&o.rays);
         self.rejected += o.rejected;
+        self.clamped += o.clamped;
         self
     }
 }
@@ -56,6 +60,8 @@ pub struct FrameStats {
     pub paths: u64,
     /// Samples whose result was NaN or infinite: dropped, counted as black.
     pub rejected_samples: u64,
+    /// Samples whose radiance was clamped to the largest a sample may carry.
+    pub clamped_samples: u64,
     /// Passes in the picture (progressive frames; 1 for a whole frame of one pass).
     pub passes: u32,
     /// Samples per pixel in the picture.

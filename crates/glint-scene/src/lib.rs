@@ -29,7 +29,7 @@ pub use camera::{Camera, CameraRays, Fov};
 pub use error::SceneError;
 pub use light::{Attenuation, Light, SpotFalloff};
 pub use material::Material;
-pub use mesh::Mesh;
+pub use mesh::{MAX_COORDINATE, Mesh};
 pub use object::{CloudObject, Object, Shape};
 pub use points::{EstimateSettings, Orientation, PointCloud, estimate_normals, estimate_radii, prepare, sample_mesh};
 pub use scene::{RenderDefaults, RenderMode, Scene};

@@ -2,6 +2,11 @@
 
 use glint_core::{Bounds3, Vec2, Vec3};
 
+/// The largest vertex coordinate (in magnitude) a mesh may have. Ray–triangle tests multiply
+/// coordinates in pairs (edge cross products, determinants), which stays finite in f32 up to
+/// about 1e19; beyond it a triangle's area overflows and it would read as degenerate.
+pub const MAX_COORDINATE: f32 = 1e18;
+
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
     pub name: String,
@@ -40,6 +45,42 @@ impl Mesh {
                 a.is_finite() && a > 0.0
             })
             .collect();
+        self.retain_triangles(&keep)
+    }
+
+    /// Remove every triangle that repeats an earlier one: the same three vertex positions in
+    /// the same winding (any rotation of its corners) and the same material. Returns how many
+    /// were removed. Exact copies add nothing to the picture, and a BVH cannot separate boxes
+    /// that coincide: a ray that reaches them tests every copy (20 000 copies of one triangle
+    /// took 4.4 s at 160 × 120). The first copy is kept, with its normals and uvs.
+    pub fn remove_duplicate_triangles(&mut self) -> usize {
+        let mut seen = std::collections::HashSet::with_capacity(self.triangles.len());
+        let keep: Vec<bool> = (0..self.triangles.len())
+            .map(|i| {
+                let corners = self.triangle(i).map(|p| p.to_array().map(f32::to_bits));
+                // The rotation that starts at the smallest corner: one key per winding.
+                let first = (0..3).min_by_key(|&k| corners[k]).unwrap_or(0);
+                let key = (
+                    [corners[first], corners[(first + 1) % 3], corners[(first + 2) % 3]],
+                    self.triangle_materials.as_ref().map(|m| m[i]),
+                );
+                seen.insert(key)
+            })
+            .collect();
+        self.retain_triangles(&keep)
+    }
+
+    /// The first vertex whose position lies beyond ±[`MAX_COORDINATE`] (or is not finite), with
+    /// its index.
+    #[must_use]
+    pub fn first_out_of_range_vertex(&self) -> Option<(usize, Vec3)> {
+        self.positions
+            .iter()
+            .position(|p| !p.is_finite() || p.abs().max_element() > MAX_COORDINATE)
+            .map(|i| (i, self.positions[i]))
+    }
+
+    fn retain_triangles(&mut self, keep: &[bool]) -> usize {
         let removed = keep.iter().filter(|k| !**k).count();
         if removed == 0 {
             return 0;
@@ -82,5 +123,33 @@ mod tests {
         assert_eq!(m.remove_degenerate_triangles(), 1);
         assert_eq!(m.triangles, vec![[0, 1, 2], [1, 2, 0]]);
         assert_eq!(m.triangle_materials, Some(vec![5, 7]));
+    }
+
+    #[test]
+    fn duplicate_triangles_are_removed_whatever_their_indices_or_rotation() {
+        let mut m = Mesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ZERO, Vec3::X, Vec3::Y],
+            // 1: same corners through other indices; 2: rotated; 3: flipped winding (kept);
+            // 4: same corners, other material (kept); 5: copy of 0.
+            triangles: vec![[0, 1, 2], [3, 4, 5], [1, 2, 0], [0, 2, 1], [0, 1, 2], [0, 1, 2]],
+            triangle_materials: Some(vec![7, 7, 7, 7, 8, 7]),
+            ..Default::default()
+        };
+        assert_eq!(m.remove_duplicate_triangles(), 3);
+        assert_eq!(m.triangles, vec![[0, 1, 2], [0, 2, 1], [0, 1, 2]]);
+        assert_eq!(m.triangle_materials, Some(vec![7, 7, 8]));
+        let mut copies =
+            Mesh { positions: m.positions.clone(), triangles: vec![[0, 1, 2]; 20_000], ..Default::default() };
+        assert_eq!(copies.remove_duplicate_triangles(), 19_999);
+    }
+
+    #[test]
+    fn far_vertices_are_found() {
+        let mut m = Mesh { positions: vec![Vec3::ZERO, Vec3::splat(-1e18), Vec3::X], ..Default::default() };
+        assert_eq!(m.first_out_of_range_vertex(), None);
+        m.positions.push(Vec3::new(0.0, 1e30, 0.0));
+        assert_eq!(m.first_out_of_range_vertex(), Some((3, Vec3::new(0.0, 1e30, 0.0))));
+        m.positions[0] = Vec3::NAN;
+        assert_eq!(m.first_out_of_range_vertex().map(|(i, _)| i), Some(0));
     }
 }

@@ -1,7 +1,7 @@
 //! `glint render`: load, apply command-line overrides, render, write atomically.
 
 use super::points;
-use crate::cli::{FilterArg, FilterOptions, FlipArg, GuideArg, RenderArgs, SkyArgs};
+use crate::cli::{FilterArg, FilterOptions, FlipArg, GuideArg, RenderArgs, SkyArgs, SkyFixArg};
 use crate::input::{self, parse_vec3};
 use crate::progress::LazyProgress;
 use anyhow::{Context, Result, bail};
@@ -111,6 +111,7 @@ fn apply_sky(scene: &mut Scene, args: &SkyArgs, input: Option<&Path>) -> Result<
             },
             rotation_degrees: args.sky_rotation.unwrap_or(0.0),
             intensity: args.sky_intensity.unwrap_or(1.0),
+            auto_fix: args.sky_fix == Some(SkyFixArg::Auto),
             ..SkyLoadOptions::default()
         };
         let loaded = load_sky(&SkySource::Path(path.clone()), &options).context("--sky")?;
@@ -126,6 +127,9 @@ fn apply_sky(scene: &mut Scene, args: &SkyArgs, input: Option<&Path>) -> Result<
     } else {
         if args.sky_flip.is_some() {
             bail!("--sky-flip applies to the images of --sky PATH");
+        }
+        if args.sky_fix.is_some() {
+            bail!("--sky-fix applies to the images of --sky PATH (a scene's sky takes [sky.face.*] keys)");
         }
         let (rotation, intensity) = (args.sky_rotation, args.sky_intensity);
         match &mut scene.sky {
@@ -248,8 +252,12 @@ fn frame_settings(args: &RenderArgs, scene: &Scene) -> Result<(ImageSettings, Mo
     };
     let mut modes = ModeSettings::from_defaults(&scene.render);
     modes.path = path_settings(args, modes.path, image.width, scene)?;
-    modes.points = points::point_settings(&args.points, &image)?;
-    Ok((image, modes.mode(mode(args, scene))))
+    let kind = mode(args, scene);
+    // The points mode's size limit is its own: a Whitted or path frame is not held to it
+    // (check_point_args has validated the options at 1 x 1).
+    let points_image = if kind == RenderMode::Points { image } else { ImageSettings::new(1, 1) };
+    modes.points = points::point_settings(&args.points, &points_image)?;
+    Ok((image, modes.mode(kind)))
 }
 
 pub fn run(args: &RenderArgs) -> Result<()> {
@@ -298,6 +306,14 @@ pub fn run(args: &RenderArgs) -> Result<()> {
 }
 
 fn write_output(args: &RenderArgs, kind: OutputKind, film: &Film, summary: &str) -> Result<()> {
+    // The planes of the output image (21 with the AOVs, 3 or 4 without) and the encoded bytes.
+    let channels: u64 = match kind {
+        OutputKind::Png => 4 + 1,
+        OutputKind::Exr => 21 + 21,
+    };
+    let pixels = u64::from(film.width) * u64::from(film.height);
+    let what = || format!("the output image {} ({} x {})", args.output.display(), film.width, film.height);
+    glint_core::memory::check(what, pixels.saturating_mul(channels * 4))?;
     let image = match kind {
         OutputKind::Png => film.beauty_image(args.alpha),
         OutputKind::Exr => film.aov_image(),

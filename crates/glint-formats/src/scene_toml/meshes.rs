@@ -70,6 +70,23 @@ impl Builder<'_> {
         };
         let mut mesh =
             Mesh { name: name.to_string(), positions, normals, uvs, triangles: tris, triangle_materials: None };
+        if let Some((i, p)) = mesh.first_out_of_range_vertex() {
+            return Err(self.err(
+                &triangles.span(),
+                format!(
+                    "mesh '{name}': vertex {i} is at ({:e}, {:e}, {:e}): glint takes coordinates within ±{:e}",
+                    p.x,
+                    p.y,
+                    p.z,
+                    glint_scene::MAX_COORDINATE
+                ),
+            ));
+        }
+        let copies = mesh.remove_duplicate_triangles();
+        if copies > 0 {
+            let place = self.place(&triangles.span());
+            self.warnings.push(format!("{place}: mesh '{name}': dropped {copies} duplicate triangles"));
+        }
         let dropped = mesh.remove_degenerate_triangles();
         if mesh.triangles.is_empty() {
             return Err(self.err(&triangles.span(), format!("mesh '{name}': every triangle has zero area")));

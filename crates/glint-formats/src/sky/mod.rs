@@ -53,6 +53,9 @@ pub struct SkyLoadOptions {
     pub rotation_degrees: f32,
     /// Scale of the radiance.
     pub intensity: f32,
+    /// Apply the fix the seam check finds (a flip of every face, or a flip or turn of single
+    /// faces) instead of only suggesting it (`--sky-fix auto`).
+    pub auto_fix: bool,
 }
 
 impl Default for SkyLoadOptions {
@@ -62,6 +65,7 @@ impl Default for SkyLoadOptions {
             per_face: [FaceTransform::IDENTITY; 6],
             rotation_degrees: 0.0,
             intensity: 1.0,
+            auto_fix: false,
         }
     }
 }
@@ -159,6 +163,12 @@ pub fn load_sky_texels(source: &SkySource, options: &SkyLoadOptions) -> Result<L
             (read_faces(&files, &mut warnings)?, SkyLayout::Faces, files.to_vec(), path.clone())
         }
         SkySource::Path(path) => {
+            if let Some(pixels) = claimed_pixels(path) {
+                // Decoded planes, then the texels sliced from them, then the map.
+                let needed = pixels.saturating_mul(DECODE_BYTES_PER_TEXEL + KEPT_BYTES_PER_TEXEL);
+                glint_core::memory::check(|| format!("a sky image of {pixels} pixels"), needed)
+                    .map_err(|e| FormatError::limits(path, e.to_string()))?;
+            }
             let image = read_image(path)?;
             let (layout, n) = SkyLayout::from_image_size(image.width, image.height)
                 .ok_or_else(|| bad_aspect(path, image.width, image.height))?;
@@ -195,9 +205,21 @@ pub fn load_sky_texels(source: &SkySource, options: &SkyLoadOptions) -> Result<L
         transforms.iter().filter(|t| !t.is_identity()).fold(face, |face, t| t.apply(&face))
     });
     CubeMap::check_faces(&faces).map_err(|source| FormatError::Invalid { file: about.clone(), source })?;
-    if let Some(warning) = seam_warning(&faces, options) {
+    let (warning, fix) = seam_warning(&faces, options);
+    if let Some(warning) = warning {
         warnings.push(format!("{}: {warning}", about.display()));
     }
+    let faces = match fix {
+        Some(fix) if options.auto_fix => {
+            let mut index = 0;
+            faces.map(|face| {
+                let transforms = [fix.all_faces, fix.per_face[index]];
+                index += 1;
+                transforms.iter().filter(|t| !t.is_identity()).fold(face, |face, t| t.apply(&face))
+            })
+        }
+        _ => faces,
+    };
     Ok(LoadedTexels { texels: SkyTexels::Faces(faces), layout, files, about, warnings })
 }
 
@@ -216,16 +238,25 @@ fn check_options(path: &Path, options: &SkyLoadOptions) -> Result<(), FormatErro
     Ok(())
 }
 
-/// The warning for faces that do not meet, with the fix when a simple one exists.
-fn seam_warning(faces: &[TextureImage; 6], options: &SkyLoadOptions) -> Option<String> {
-    let (score, fix) = seam::diagnose(faces)?;
+/// The warning for faces that do not meet, with the fix when a simple one exists (applied by
+/// the caller when `options.auto_fix`).
+fn seam_warning(faces: &[TextureImage; 6], options: &SkyLoadOptions) -> (Option<String>, Option<seam::SeamFix>) {
+    let Some((score, fix)) = seam::diagnose(faces) else { return (None, None) };
     if score <= seam::MISMATCHED {
-        return None;
+        return (None, None);
     }
     let given = if options.has_face_transforms() { " with the flips and turns given" } else { "" };
-    Some(match fix {
+    let warning = match &fix {
+        Some(fix) if options.auto_fix => format!(
+            "faces do not meet at their edges{given} (seam score {score:.1}); applied the fix (--sky-fix auto): {} \
+             ({:.1}); to keep it in a scene: {}",
+            fix.describe(),
+            fix.score,
+            fix.toml()
+        ),
         Some(fix) => format!(
-            "faces do not meet at their edges{given} (seam score {score:.1}); {} they would ({:.1}): {}",
+            "faces do not meet at their edges{given} (seam score {score:.1}); {} they would ({:.1}): {}; or \
+             render with --sky-fix auto",
             fix.describe(),
             fix.score,
             fix.toml()
@@ -234,7 +265,8 @@ fn seam_warning(faces: &[TextureImage; 6], options: &SkyLoadOptions) -> Option<S
             "faces do not meet at their edges{given} (seam score {score:.1}, about 1 is expected) and no flip \
              or quarter turn fixes it: check which file is which face (docs/skies.md)"
         ),
-    })
+    };
+    (Some(warning), fix)
 }
 
 fn bad_aspect(path: &Path, width: u32, height: u32) -> FormatError {
@@ -322,8 +354,46 @@ fn sanitise_faces(path: &Path, faces: [TextureImage; 6], warnings: &mut Vec<Stri
     faces
 }
 
-/// Reads six face files (in parallel) and checks they are square and equal.
+/// Bytes a sky texel holds once read: linear RGB (12) until the map is built, and the map's
+/// shared-exponent texel with its mips and borders (about 6).
+const KEPT_BYTES_PER_TEXEL: u64 = 18;
+/// Bytes a texel takes while its file is decoded: the decoder's pixels (at most 8, RGBA16) and
+/// the f32 planes (12).
+const DECODE_BYTES_PER_TEXEL: u64 = 20;
+
+/// The pixel count a file's header claims, without decoding it (`None` when the header cannot
+/// be read: decoding will then say why).
+fn claimed_pixels(path: &Path) -> Option<u64> {
+    let (w, h) = image::ImageReader::open(path).ok()?.with_guessed_format().ok()?.into_dimensions().ok()?;
+    Some(u64::from(w) * u64::from(h))
+}
+
+/// Whether six faces of these pixel counts can be decoded at once within the memory budget;
+/// when even one at a time would not fit, the error saying what they need.
+fn decode_in_parallel(paths: &[PathBuf; 6]) -> Result<bool, FormatError> {
+    let pixels: Vec<u64> = paths.iter().map(|p| claimed_pixels(p).unwrap_or(0)).collect();
+    let total: u64 = pixels.iter().sum();
+    let largest = pixels.iter().copied().max().unwrap_or(0);
+    let kept = total.saturating_mul(KEPT_BYTES_PER_TEXEL);
+    let what = || format!("six sky faces of {largest} texels each ({total} texels in all)");
+    glint_core::memory::check(what, kept.saturating_add(largest.saturating_mul(DECODE_BYTES_PER_TEXEL)))
+        .map_err(|e| FormatError::limits(&paths[0], e.to_string()))?;
+    let parallel = kept.saturating_add(total.saturating_mul(DECODE_BYTES_PER_TEXEL));
+    Ok(glint_core::memory::check(String::new, parallel).is_ok())
+}
+
+/// Reads six face files and checks they are square and equal: in parallel, or one after the
+/// other when only that fits the memory budget (the texels are the same either way).
 fn read_faces(paths: &[PathBuf; 6], warnings: &mut Vec<String>) -> Result<[TextureImage; 6], FormatError> {
+    if !decode_in_parallel(paths)? {
+        let mut faces = Vec::with_capacity(6);
+        for path in paths {
+            let image = read_image(path)?;
+            check_side(path, image.width.max(image.height))?;
+            faces.push(texture_from_image(path, &image, warnings)?);
+        }
+        return check_face_sizes(paths, faces);
+    }
     let results: Vec<Result<(TextureImage, Vec<String>), FormatError>> = std::thread::scope(|scope| {
         let handles: Vec<_> = paths
             .iter()
@@ -353,6 +423,10 @@ fn read_faces(paths: &[PathBuf; 6], warnings: &mut Vec<String>) -> Result<[Textu
         warnings.extend(w);
         faces.push(face);
     }
+    check_face_sizes(paths, faces)
+}
+
+fn check_face_sizes(paths: &[PathBuf; 6], faces: Vec<TextureImage>) -> Result<[TextureImage; 6], FormatError> {
     for (path, face) in paths.iter().zip(&faces) {
         if face.width != face.height {
             return Err(FormatError::sky(

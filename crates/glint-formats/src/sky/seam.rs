@@ -6,7 +6,8 @@
 //! the faces; for a flipped, turned or misnamed face it is the difference between unrelated
 //! content. The score of an edge is the mean jump across it over the mean step inside
 //! (values compressed by `x/(1+x)` and sRGB-encoded first, so HDR suns do not dominate); the
-//! score of a set is the median over the 12 edges, which one flat or odd face cannot move.
+//! score of a set is the median over the 12 edges, which one flat or odd face cannot move, and
+//! each face is also scored on its own 4 edges, so that one face turned alone is noticed.
 //! Correct photographs score about 1 (JPEG blocks, ≈ 1–1.5), wrong ones several times that.
 
 use super::transform::FaceTransform;
@@ -124,6 +125,23 @@ impl Seams {
         0.5 * (scores[5] + scores[6])
     }
 
+    /// Face `f`'s own score: the median of its 4 edges (the mean of the middle two). A face
+    /// turned or flipped against its neighbours spoils all four of its edges, while each of its
+    /// neighbours loses only one of theirs, so this singles the turned face out where the set's
+    /// median over 12 edges does not move.
+    fn face_median(&self, f: usize, transforms: &[FaceTransform; 6]) -> f32 {
+        let scores = self.edge_scores(transforms);
+        let mut own: Vec<f32> =
+            EDGES.iter().zip(scores).filter(|((a, b), _)| *a == f || *b == f).map(|(_, s)| s).collect();
+        own.sort_by(f32::total_cmp);
+        0.5 * (own[1] + own[2])
+    }
+
+    /// The worst face by [`Seams::face_median`], with its score.
+    fn worst_face(&self, transforms: &[FaceTransform; 6]) -> (usize, f32) {
+        (0..6).map(|f| (f, self.face_median(f, transforms))).fold((0, f32::MIN), |a, b| if b.1 > a.1 { b } else { a })
+    }
+
     /// The mean score of the 4 edges of face `f`.
     fn face_score(&self, f: usize, transforms: &[FaceTransform; 6]) -> f32 {
         let scores = self.edge_scores(transforms);
@@ -213,11 +231,14 @@ impl SeamFix {
                 continue;
             }
             let mut keys = Vec::new();
-            if t.flip_horizontal || t.flip_vertical {
+            // Flipped both ways is a half turn: said as the turn, which is how sets differ.
+            let both = t.flip_horizontal && t.flip_vertical;
+            let rotate = if both { (t.rotate_degrees + 180) % 360 } else { t.rotate_degrees };
+            if (t.flip_horizontal || t.flip_vertical) && !both {
                 keys.push(format!("flip = \"{}\"", t.flip_name()));
             }
-            if t.rotate_degrees != 0 {
-                keys.push(format!("rotate = {}", t.rotate_degrees));
+            if rotate != 0 {
+                keys.push(format!("rotate = {rotate}"));
             }
             parts.push(format!("[sky.face.{}] {}", face.short_name(), keys.join(", ")));
         }
@@ -232,7 +253,11 @@ impl SeamFix {
         }
         for face in CubeFace::ALL {
             let t = self.per_face[face.index()];
-            if !t.is_identity() {
+            if t.flip_horizontal && t.flip_vertical {
+                // Flipped both ways is a half turn (as `toml` says it).
+                let turn = FaceTransform::rotate((t.rotate_degrees + 180) % 360);
+                parts.push(format!("{} {}", face.short_name(), turn.describe()));
+            } else if !t.is_identity() {
                 parts.push(format!("{} {}", face.short_name(), t.describe()));
             }
         }
@@ -240,17 +265,20 @@ impl SeamFix {
     }
 }
 
-/// The score of the faces as they are, and, when they do not meet, the simplest fix that makes
-/// them: all faces flipped (horizontally, vertically, both), then single faces flipped or
-/// turned where that helps a lot.
+/// The faces' score as they are — the worse of the set's median edge and the worst face's own
+/// median edge ([`Seams::face_median`]), so one turned face is noticed — and, when they do not
+/// meet, the simplest fix that makes them: all faces flipped (horizontally, vertically, both),
+/// then single faces flipped or turned where that helps a lot.
 pub(crate) fn diagnose(faces: &[TextureImage; 6]) -> Option<(f32, Option<SeamFix>)> {
     let seams = Seams::new(faces)?;
     let identity = [FaceTransform::IDENTITY; 6];
-    let score = seams.score(&identity);
+    let overall = |t: &[FaceTransform; 6]| seams.score(t).max(seams.worst_face(t).1);
+    let set_score = seams.score(&identity);
+    let score = overall(&identity);
     if score <= MISMATCHED {
         return Some((score, None));
     }
-    let mut best = SeamFix { all_faces: FaceTransform::IDENTITY, per_face: identity, score };
+    let mut best = SeamFix { all_faces: FaceTransform::IDENTITY, per_face: identity, score: set_score };
     for flip in [FaceTransform::flip(false, true), FaceTransform::flip(true, false), FaceTransform::flip(true, true)] {
         let s = seams.score(&[flip; 6]);
         // Prefer the simpler fix unless another is clearly better.
@@ -276,9 +304,14 @@ pub(crate) fn diagnose(faces: &[TextureImage; 6]) -> Option<(f32, Option<SeamFix
             }
             best.per_face[f] = choice.0;
         }
-        best.score = seams.score(&combined(&best));
+        best.score = overall(&combined(&best));
     }
     let fixed = best.score <= MATCHED && best.score < score * 0.5;
+    if !fixed && set_score <= MISMATCHED {
+        // One odd face that no flip or turn explains (a plain `down` face, a logo): not a
+        // convention problem, and the set as a whole meets.
+        return Some((set_score, None));
+    }
     Some((score, fixed.then_some(best)))
 }
 
@@ -354,12 +387,12 @@ mod tests {
         t[2] = FaceTransform::rotate(90);
         let turned = transformed(&faces, t);
         let (score, fix) = diagnose(&turned).expect("square");
-        // One face of six spoils 4 of 12 edges: the median may stay low, so no warning is
-        // required here; if there is one, it must name the right fix.
-        if let Some(fix) = fix {
-            assert!(score > MISMATCHED);
-            assert_eq!(fix.per_face[2], FaceTransform::rotate(270), "{fix:?}");
-        }
+        // One face of six spoils only 4 of 12 edges, which the set's median does not see; the
+        // face's own edges do (issue 20).
+        let fix = fix.expect("a fix for one turned face");
+        assert!(score > MISMATCHED, "{score}");
+        assert_eq!(fix.per_face[2], FaceTransform::rotate(270), "{fix:?}");
+        assert!(fix.per_face.iter().enumerate().all(|(f, t)| f == 2 || t.is_identity()), "{fix:?}");
         // Two faces turned spoil 7 edges: now it must be found.
         t[4] = FaceTransform::rotate(180);
         let turned = transformed(&faces, t);
@@ -369,6 +402,36 @@ mod tests {
         assert_eq!(fix.per_face[2], FaceTransform::rotate(270), "{fix:?}");
         assert!(fix.per_face[4].source_texel(0, 0, 3, 3) == (2, 2), "{fix:?}");
         assert!(fix.toml().contains("[sky.face.py] rotate = 270"), "{}", fix.toml());
+    }
+
+    #[test]
+    fn one_face_turned_or_flipped_alone_is_found_with_its_fix() {
+        let faces = smooth_faces(32);
+        for (face, turn, undo) in [
+            (3, FaceTransform::rotate(180), "[sky.face.ny] rotate = 180"),
+            (5, FaceTransform::rotate(90), "[sky.face.nz] rotate = 270"),
+            (0, FaceTransform::flip(true, false), "[sky.face.px] flip = \"horizontal\""),
+        ] {
+            let mut t = [FaceTransform::IDENTITY; 6];
+            t[face] = turn;
+            let turned = transformed(&faces, t);
+            assert!(seam_mismatch(&turned) <= MISMATCHED, "the set's median alone does not see it");
+            let (score, fix) = diagnose(&turned).expect("square");
+            let fix = fix.unwrap_or_else(|| panic!("face {face}: no fix (score {score})"));
+            assert!(score > MISMATCHED && fix.score <= MATCHED, "{score} {fix:?}");
+            assert_eq!(fix.toml(), undo);
+            // Applying the fix gives back the consistent set.
+            let fixed = transformed(&turned, fix.per_face);
+            assert_eq!(diagnose(&fixed).expect("square").1, None);
+        }
+    }
+
+    #[test]
+    fn a_plain_face_is_not_a_turned_face() {
+        let mut faces = smooth_faces(32);
+        faces[3].texels.fill(Rgb::new(0.2, 0.2, 0.2));
+        let (score, fix) = diagnose(&faces).expect("square");
+        assert!(score <= MISMATCHED && fix.is_none(), "{score} {fix:?}");
     }
 
     #[test]

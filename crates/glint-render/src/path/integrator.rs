@@ -86,9 +86,46 @@ pub struct CameraSample {
     pub covered: bool,
 }
 
+/// What [`CameraSample::bound`] did to a sample.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SampleBound {
+    /// Every value was finite and within [`MAX_SAMPLE_RADIANCE`].
+    Within,
+    /// Some radiance was finite but above the bound, and was clamped to it.
+    Clamped,
+    /// Some value was NaN or infinite: the sample must be dropped.
+    NonFinite,
+}
+
+use crate::film::MAX_SAMPLE_RADIANCE;
+
 impl CameraSample {
     pub fn is_finite(&self) -> bool {
         self.rest.is_finite() && self.direct.is_finite() && self.albedo.is_finite() && self.indirect.is_finite()
+    }
+
+    /// Check the sample and clamp its radiance (and the albedo weight that multiplies it) to
+    /// [`MAX_SAMPLE_RADIANCE`] per channel, so that `rest + albedo · indirect` and every sum of
+    /// samples stay finite.
+    pub fn bound(&mut self) -> SampleBound {
+        if !self.is_finite() {
+            return SampleBound::NonFinite;
+        }
+        let mut clamped = false;
+        for v in [&mut self.rest, &mut self.direct, &mut self.indirect] {
+            if v.max_element() > MAX_SAMPLE_RADIANCE {
+                *v = v.min(Rgb::splat(MAX_SAMPLE_RADIANCE));
+                clamped = true;
+            }
+        }
+        // A throughput weight above 1e3 times a clamped radiance could still pass the bound.
+        let product = self.albedo * self.indirect;
+        if product.max_element() > MAX_SAMPLE_RADIANCE {
+            let scale = MAX_SAMPLE_RADIANCE / product.max_element();
+            self.indirect *= scale;
+            clamped = true;
+        }
+        if clamped { SampleBound::Clamped } else { SampleBound::Within }
     }
 }
 

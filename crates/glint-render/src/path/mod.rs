@@ -36,7 +36,7 @@ use glint_core::random::SampleStream;
 use glint_core::{PixelFilter, PixelSampler, Ray, Rgb, Vec2, Vec3};
 use glint_filter::Filter;
 use glint_scene::{Camera, limits};
-use integrator::{CameraSample, IndirectMode, Integrator, PathParams};
+use integrator::{CameraSample, IndirectMode, Integrator, PathParams, SampleBound};
 use lights::LightSet;
 use lookup::GuideMap;
 pub use progressive::PathAccumulator;
@@ -390,7 +390,8 @@ pub fn render_path(
     path.validate()?;
     let start = Instant::now();
     let frame = Frame::new(world, camera, image, path);
-    let mut acc = vec![Accum::default(); image.pixels()];
+    let what = || format!("the path accumulator of a {} x {} image", image.width, image.height);
+    let mut acc = glint_core::memory::try_filled(what, image.pixels(), Accum::default())?;
     let mut aovs: Vec<GuidePixel> = Vec::new();
     let mut stats = FrameStats::default();
     let (mut trace, mut filter) = (Duration::ZERO, Duration::ZERO);
@@ -426,7 +427,7 @@ pub fn render_path(
             _ => break,
         }
     }
-    resolve_film(&acc, &aovs, path.filtered(), pass, image, film);
+    resolve_film(&acc, &aovs, path.filtered(), pass, image, film)?;
     stats.passes = pass;
     stats.samples_per_pixel = pass * path.spp;
     stats.paths = image.pixels() as u64 * u64::from(pass * path.spp);
@@ -460,7 +461,7 @@ fn trace_guides(
     let count = if filtered { 1 } else { path.spp as u64 };
     let totals = bands::run(parts, frame.schedule, hooks, |band, (gs, accs)| {
         let mut tracer = Tracer::new(world, frame, path.kernel);
-        let mut rejected = 0;
+        let (mut rejected, mut clamped) = (0, 0);
         // The guide ray of the first pass goes through the pixel centre (the guide and the
         // AOVs); every other sample, later passes' guide rays included, is jittered, so a pixel
         // centre on a crack does not stay dark for the whole budget.
@@ -473,11 +474,17 @@ fn trace_guides(
         };
         tracer.samples(gs.len(), count, request, |k, s, _, cs| {
             let (g, a) = (&mut gs[k], &mut accs[k]);
-            if !cs.is_finite() {
-                rejected += 1;
-                a.samples += !filtered as u32;
-                return;
+            let mut cs = *cs;
+            match cs.bound() {
+                SampleBound::NonFinite => {
+                    rejected += 1;
+                    a.samples += !filtered as u32;
+                    return;
+                }
+                SampleBound::Clamped => clamped += 1,
+                SampleBound::Within => {}
             }
+            let cs = &cs;
             if s == 0 {
                 g.sample = *cs;
             }
@@ -492,10 +499,11 @@ fn trace_guides(
             }
         });
         hooks.report((gs.len() / w) as u64);
-        BandStats { rays: tracer.counts(), rejected }
+        BandStats { rays: tracer.counts(), rejected, clamped }
     })?;
     stats.rays.add(&totals.rays);
     stats.rejected_samples += totals.rejected;
+    stats.clamped_samples += totals.clamped;
     Ok(guides)
 }
 
@@ -543,7 +551,7 @@ fn trace_lookups(
     let parts: Vec<_> = acc.chunks_mut(w * BAND_ROWS).collect();
     let totals = bands::run(parts, frame.schedule, hooks, |band, accs| {
         let mut tracer = Tracer::new(world, frame, path.kernel);
-        let mut rejected = 0;
+        let (mut rejected, mut clamped) = (0, 0);
         let y0 = band * BAND_ROWS;
         for (k, a) in accs.iter_mut().enumerate() {
             let i = y0 * w + k;
@@ -565,9 +573,14 @@ fn trace_lookups(
         tracer.samples(accs.len(), further, request, |k, _, pos, cs| {
             let a = &mut accs[k];
             a.samples += 1;
-            if !cs.is_finite() {
-                rejected += 1;
-                return;
+            let mut cs = *cs;
+            match cs.bound() {
+                SampleBound::NonFinite => {
+                    rejected += 1;
+                    return;
+                }
+                SampleBound::Clamped => clamped += 1,
+                SampleBound::Within => {}
             }
             let indirect = match cs.guide {
                 Some(q) => map.choose(pos, q.normal, q.depth).map_or(Rgb::ZERO, |j| filtered_indirect[j]),
@@ -578,10 +591,11 @@ fn trace_lookups(
             a.covered += cs.covered as u32;
         });
         hooks.report((accs.len() / w) as u64);
-        BandStats { rays: tracer.counts(), rejected }
+        BandStats { rays: tracer.counts(), rejected, clamped }
     })?;
     stats.rays.add(&totals.rays);
     stats.rejected_samples += totals.rejected;
+    stats.clamped_samples += totals.clamped;
     Ok(())
 }
 
@@ -594,8 +608,8 @@ fn resolve_film(
     passes: u32,
     image: &ImageSettings,
     film: &mut Film,
-) {
-    film.reset(image.width, image.height);
+) -> Result<(), RenderError> {
+    film.reset(image.width, image.height)?;
     film.path_aovs = true;
     film.variance = !filtered;
     for ((p, a), g) in film.pixels.iter_mut().zip(acc).zip(aovs) {
@@ -613,6 +627,7 @@ fn resolve_film(
             variance: if filtered { Rgb::ZERO } else { a.variance() },
         };
     }
+    Ok(())
 }
 
 /// The planes [`filter_indirect`] fills and the filter writes into, kept between calls by a

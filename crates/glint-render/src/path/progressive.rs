@@ -20,7 +20,7 @@
 //! are kept between frames. Samples are traced by the settings' [`super::PathKernel`] (the
 //! wavefront tracer by default).
 
-use super::integrator::{GuideGeometry, IndirectMode};
+use super::integrator::{GuideGeometry, IndirectMode, SampleBound};
 use super::wavefront::Request;
 use super::{BAND_ROWS, FilterBuffers, Frame, PathSettings, Tracer, depth_scale, filter_indirect};
 use crate::bands::{self, Hooks};
@@ -130,7 +130,7 @@ impl PathAccumulator {
             .collect();
         let band_stats = bands::run(parts, image.schedule, hooks, |band, ((sums, guides), albedos)| {
             let mut tracer = Tracer::new(world, &frame, path.kernel);
-            let mut rejected = 0;
+            let (mut rejected, mut clamped) = (0, 0);
             if first {
                 // The first pass clears every pixel it traces (in parallel, while its sums are
                 // in cache).
@@ -145,9 +145,14 @@ impl PathAccumulator {
             tracer.samples(sums.len(), path.spp as u64, request, |k, s, _, cs| {
                 let a = &mut sums[k];
                 a.samples += 1;
-                if !cs.is_finite() {
-                    rejected += 1;
-                    return;
+                let mut cs = *cs;
+                match cs.bound() {
+                    SampleBound::NonFinite => {
+                        rejected += 1;
+                        return;
+                    }
+                    SampleBound::Clamped => clamped += 1,
+                    SampleBound::Within => {}
                 }
                 if first && s == 0 {
                     guides[k] = cs.guide;
@@ -164,7 +169,7 @@ impl PathAccumulator {
                 a.covered += cs.covered as u32;
             });
             hooks.report((sums.len() / w) as u64);
-            BandStats { rays: tracer.counts(), rejected }
+            BandStats { rays: tracer.counts(), rejected, clamped }
         });
         let band_stats = match band_stats {
             Ok(totals) => totals,
@@ -181,6 +186,7 @@ impl PathAccumulator {
             stages: vec![("trace", trace)],
             rays: band_stats.rays,
             rejected_samples: band_stats.rejected,
+            clamped_samples: band_stats.clamped,
             passes: self.passes,
             samples_per_pixel: self.samples_per_pixel(),
             paths: (w * h) as u64 * u64::from(path.spp),
@@ -197,7 +203,7 @@ impl PathAccumulator {
     pub fn resolve(&mut self, world: &World, filter: &Filter, film: &mut Film) -> Result<Duration, RenderError> {
         let (w, h) = (self.width as usize, self.height as usize);
         if film.width != self.width || film.height != self.height {
-            *film = Film::new(self.width, self.height);
+            *film = Film::try_new(self.width, self.height)?;
         }
         film.path_aovs = true;
         if self.passes == 0 {

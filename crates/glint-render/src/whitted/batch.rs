@@ -16,7 +16,7 @@
 
 use super::Samples;
 use super::shade8::{LightLanes, MaterialTable, Shading, shade, sky8};
-use crate::film::FilmPixel;
+use crate::film::{FilmPixel, MAX_SAMPLE_RADIANCE};
 use crate::settings::{ImageSettings, WhittedSettings};
 use crate::stats::{BandStats, RayCounts};
 use crate::world::World;
@@ -241,17 +241,19 @@ pub(super) fn render_band<I: Isa>(
     band: &mut [FilmPixel],
 ) -> BandStats {
     let mut counts = RayCounts::default();
-    let mut rejected = 0;
+    let (mut rejected, mut clamped) = (0, 0);
     let y0 = band_index * rows;
     let band_rows = band.len() / frame.width;
     for x0 in (0..frame.width).step_by(TILE_W) {
         let tile_w = TILE_W.min(frame.width - x0);
-        rejected += render_tile::<I>(frame, scratch, x0, y0, tile_w, band_rows, &mut counts, band);
+        let (r, c) = render_tile::<I>(frame, scratch, x0, y0, tile_w, band_rows, &mut counts, band);
+        (rejected, clamped) = (rejected + r, clamped + c);
     }
-    BandStats { rays: counts, rejected }
+    BandStats { rays: counts, rejected, clamped }
 }
 
-/// One tile: primary stream, depth levels, then the pixels. Returns the samples dropped.
+/// One tile: primary stream, depth levels, then the pixels. Returns the samples dropped and
+/// clamped.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn render_tile<I: Isa>(
@@ -263,7 +265,7 @@ fn render_tile<I: Isa>(
     tile_h: usize,
     counts: &mut RayCounts,
     band: &mut [FilmPixel],
-) -> u64 {
+) -> (u64, u64) {
     let n = frame.samples_per_side;
     let per_pixel = (n * n) as usize;
     let pixels = tile_w * tile_h;
@@ -358,7 +360,7 @@ fn sample_offset(frame: &Frame, pixel: u64, s: u32) -> Vec2 {
 }
 
 /// The tile's pixels from its sample sums, as the scalar driver's pixel accumulator makes
-/// them. Returns the samples dropped (NaN or infinite colour).
+/// them. Returns the samples dropped (NaN or infinite colour) and clamped.
 fn resolve_tile(
     frame: &Frame,
     sums: &TileSums,
@@ -366,11 +368,11 @@ fn resolve_tile(
     tile_w: usize,
     tile_h: usize,
     band: &mut [FilmPixel],
-) -> u64 {
+) -> (u64, u64) {
     let per_pixel = (frame.samples_per_side * frame.samples_per_side) as usize;
     let pixels = tile_w * tile_h;
     let inv_samples = 1.0 / per_pixel as f32;
-    let mut rejected = 0;
+    let (mut rejected, mut clamped) = (0, 0);
     for ty in 0..tile_h {
         for tx in 0..tile_w {
             let p = ty * tile_w + tx;
@@ -379,10 +381,13 @@ fn resolve_tile(
             for s in 0..per_pixel {
                 let k = s * pixels + p;
                 let c = sums.colour[k];
-                if c.is_finite() {
-                    colour += c;
-                } else {
+                if !c.is_finite() {
                     rejected += 1;
+                } else if c.max_element() > MAX_SAMPLE_RADIANCE {
+                    colour += c.min(Rgb::splat(MAX_SAMPLE_RADIANCE));
+                    clamped += 1;
+                } else {
+                    colour += c;
                 }
                 if sums.hit[k] {
                     hits += 1;
@@ -406,5 +411,5 @@ fn resolve_tile(
             };
         }
     }
-    rejected
+    (rejected, clamped)
 }

@@ -16,7 +16,7 @@ mod tracer;
 pub use tracer::{FirstHit, Tracer};
 
 use crate::bands::{self, Hooks};
-use crate::film::{Film, FilmPixel};
+use crate::film::{Film, FilmPixel, MAX_SAMPLE_RADIANCE};
 use crate::settings::{ImageSettings, WhittedKernel, WhittedSettings};
 use crate::stats::{BandStats, FrameStats};
 use crate::{RenderError, World};
@@ -69,7 +69,7 @@ pub fn render(
     }
     let start = Instant::now();
     let w = image.width as usize;
-    film.reset(image.width, image.height);
+    film.reset(image.width, image.height)?;
     let rays = image.camera_rays(camera);
     let (film_x, film_y) = image.film_origin();
     // Ray footprints for sky filtering: a sample's angular width at the image centre (a
@@ -82,7 +82,7 @@ pub fn render(
 
     let render_band = |band_index: usize, band: &mut [FilmPixel]| -> BandStats {
         let mut tracer = Tracer::default();
-        let mut rejected = 0;
+        let (mut rejected, mut clamped) = (0, 0);
         let y0 = band_index * BAND_ROWS;
         let rows = band.len() / w;
         let n = settings.samples_per_side;
@@ -106,10 +106,13 @@ pub fn render(
                         let ray = rays.ray(Vec2::new((film_x + x) as f32, (film_y + y) as f32) + offset);
                         let cos = ray.dir.dot(forward);
                         let (c, first) = tracer.trace(world, ray, centre_cone * cos * cos.sqrt(), &settings);
-                        if c.is_finite() {
-                            acc.colour += c;
-                        } else {
+                        if !c.is_finite() {
                             rejected += 1;
+                        } else if c.max_element() > MAX_SAMPLE_RADIANCE {
+                            acc.colour += c.min(Rgb::splat(MAX_SAMPLE_RADIANCE));
+                            clamped += 1;
+                        } else {
+                            acc.colour += c;
                         }
                         if let Some(f) = first {
                             acc.hits += 1;
@@ -123,7 +126,7 @@ pub fn render(
             }
         }
         hooks.report(rows as u64);
-        BandStats { rays: tracer.counts, rejected }
+        BandStats { rays: tracer.counts, rejected, clamped }
     };
 
     let parts: Vec<&mut [FilmPixel]> = film.pixels.chunks_mut(w * BAND_ROWS).collect();
@@ -146,6 +149,7 @@ pub fn render(
         stages: vec![("trace", elapsed)],
         rays: totals.rays,
         rejected_samples: totals.rejected,
+        clamped_samples: totals.clamped,
         passes: 1,
         samples_per_pixel: n * n,
         ..FrameStats::default()

@@ -25,6 +25,7 @@ impl EmissiveTriangle {
     /// The radiance emitted at barycentric coordinates (b0, b1) of `vertices` (toward a
     /// direction it emits to).
     #[inline]
+    #[must_use]
     pub fn emission_at(&self, world: &World, b0: f32, b1: f32) -> Rgb {
         match &self.texture {
             None => self.emission,
