@@ -25,7 +25,6 @@ pub enum PixelFilter {
     Gaussian { stddev: f32 },
 }
 
-
 /// The widest filter accepted, in pixels (a wider one blurs more than any film filter should).
 pub const MAX_FILTER_RADIUS: f32 = 16.0;
 

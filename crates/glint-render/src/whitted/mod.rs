@@ -191,11 +191,11 @@ fn render_window(
     hooks: &Hooks,
     film: &mut Film,
 ) -> Result<FrameStats, RenderError> {
-    let mut grown = Film::new(aligned.width, aligned.height);
+    let mut grown = Film::try_new(aligned.width, aligned.height)?;
     let stats = render(world, camera, aligned, settings, samples, hooks, &mut grown)?;
     let (dx, dy) = (image.film_origin().0 - aligned.film_origin().0, image.film_origin().1 - aligned.film_origin().1);
     let (w, gw) = (image.width as usize, aligned.width as usize);
-    film.reset(image.width, image.height);
+    film.reset(image.width, image.height)?;
     for (y, row) in film.pixels.chunks_mut(w).enumerate() {
         let start = (y + dy) * gw + dx;
         row.copy_from_slice(&grown.pixels[start..start + w]);
