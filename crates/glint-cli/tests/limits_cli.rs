@@ -185,7 +185,7 @@ fn messages_name_the_real_cause() {
     std::fs::write(d.join("huge.obj"), cube).unwrap();
     // One vertex far away: not "light #0: position must be finite" nor a camera message.
     std::fs::write(d.join("far.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 3e38 -3e38 0\nf 1 2 3\nf 2 3 4\n").unwrap();
-    for (file, needle) in [("huge.obj", "vertex 1 of mesh \"huge\" is at (-1e30"), ("far.obj", "vertex 4")] {
+    for (file, needle) in [("huge.obj", "mesh \"huge\": vertex 1 is at (-1e30"), ("far.obj", "vertex 4")] {
         let args = ["render", file, "-o", "out.png"];
         assert_fails_cleanly(&args, needle, &d);
         let msg = stderr(&glint(&args, &d));

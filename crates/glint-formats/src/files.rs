@@ -139,11 +139,17 @@ pub(crate) fn check(path: &Path, by: Option<Referrer>) -> Result<PathBuf, Format
     if !meta.is_file() {
         return Err(not_regular(path, &meta, by));
     }
+    Ok(inside_sandbox(path, by, "file")?.unwrap_or_else(|| path.to_path_buf()))
+}
+
+/// `path` resolved (symlinks and `..` followed) when a sandbox is set and it lies inside it;
+/// None without a sandbox; an error naming the referrer (`what` when there is none) outside.
+fn inside_sandbox(path: &Path, by: Option<Referrer>, what: &str) -> Result<Option<PathBuf>, FormatError> {
     let policy = FilePolicy::current();
-    let Some(root) = policy.root() else { return Ok(path.to_path_buf()) };
+    let Some(root) = policy.root() else { return Ok(None) };
     let resolved = std::fs::canonicalize(path).map_err(|e| FormatError::io(path, e))?;
     if !resolved.starts_with(root) {
-        let (scene, field) = by.map_or((path, "file"), |r| (r.file, r.field));
+        let (scene, field) = by.map_or((path, what), |r| (r.file, r.field));
         return Err(FormatError::Sandbox {
             scene: scene.to_path_buf(),
             field: field.to_string(),
@@ -152,7 +158,7 @@ pub(crate) fn check(path: &Path, by: Option<Referrer>) -> Result<PathBuf, Format
             sandbox: root.to_path_buf(),
         });
     }
-    Ok(resolved)
+    Ok(Some(resolved))
 }
 
 /// Checks a folder named by `by` (a folder of sky faces): it must exist and lie in the sandbox.
@@ -161,19 +167,7 @@ pub(crate) fn check_folder(path: &Path, by: Option<Referrer>) -> Result<(), Form
     if !meta.is_dir() {
         return Err(FormatError::io(path, std::io::Error::other("not a folder")));
     }
-    if let Some(root) = FilePolicy::current().root() {
-        let resolved = std::fs::canonicalize(path).map_err(|e| FormatError::io(path, e))?;
-        if !resolved.starts_with(root) {
-            let (scene, field) = by.map_or((path, "folder"), |r| (r.file, r.field));
-            return Err(FormatError::Sandbox {
-                scene: scene.to_path_buf(),
-                field: field.to_string(),
-                path: path.to_path_buf(),
-                resolved,
-                sandbox: root.to_path_buf(),
-            });
-        }
-    }
+    inside_sandbox(path, by, "folder")?;
     Ok(())
 }
 

@@ -108,20 +108,9 @@ pub(crate) fn finish_meshes(
     }
     let mut dropped_total = 0;
     for m in meshes.iter_mut() {
-        if let Some((i, p)) = m.first_out_of_range_vertex() {
-            let which = if m.name.is_empty() { String::new() } else { format!(" of mesh {:?}", m.name) };
-            return Err(FormatError::limits(
-                path,
-                format!(
-                    "vertex {}{which} is at ({:e}, {:e}, {:e}): glint takes coordinates within ±{:e} (the scene's \
-                     units can be scaled down)",
-                    i + 1,
-                    p.x,
-                    p.y,
-                    p.z,
-                    glint_scene::MAX_COORDINATE
-                ),
-            ));
+        if let Some(message) = m.out_of_range_message() {
+            let which = if m.name.is_empty() { String::new() } else { format!("mesh {:?}: ", m.name) };
+            return Err(FormatError::limits(path, format!("{which}{message}")));
         }
         let copies = m.remove_duplicate_triangles();
         if copies > 0 {

@@ -80,6 +80,20 @@ impl Mesh {
             .map(|i| (i, self.positions[i]))
     }
 
+    /// What is wrong with [`Mesh::first_out_of_range_vertex`], in words (vertices numbered
+    /// from 1), for a loader to put its file and place before.
+    pub fn out_of_range_message(&self) -> Option<String> {
+        let (i, p) = self.first_out_of_range_vertex()?;
+        Some(format!(
+            "vertex {} is at ({:e}, {:e}, {:e}): glint takes coordinates within ±{MAX_COORDINATE:e} (the scene's \
+             units can be scaled down)",
+            i + 1,
+            p.x,
+            p.y,
+            p.z
+        ))
+    }
+
     fn retain_triangles(&mut self, keep: &[bool]) -> usize {
         let removed = keep.iter().filter(|k| !**k).count();
         if removed == 0 {

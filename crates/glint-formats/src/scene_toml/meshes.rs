@@ -70,17 +70,8 @@ impl Builder<'_> {
         };
         let mut mesh =
             Mesh { name: name.to_string(), positions, normals, uvs, triangles: tris, triangle_materials: None };
-        if let Some((i, p)) = mesh.first_out_of_range_vertex() {
-            return Err(self.err(
-                &triangles.span(),
-                format!(
-                    "mesh '{name}': vertex {i} is at ({:e}, {:e}, {:e}): glint takes coordinates within ±{:e}",
-                    p.x,
-                    p.y,
-                    p.z,
-                    glint_scene::MAX_COORDINATE
-                ),
-            ));
+        if let Some(message) = mesh.out_of_range_message() {
+            return Err(self.err(&triangles.span(), format!("mesh '{name}': {message}")));
         }
         let copies = mesh.remove_duplicate_triangles();
         if copies > 0 {

@@ -127,6 +127,20 @@ impl CameraSample {
         }
         if clamped { SampleBound::Clamped } else { SampleBound::Within }
     }
+
+    /// This sample [bounded](CameraSample::bound), counted in `clamped` when it was clamped;
+    /// None, counted in `rejected`, when it must be dropped.
+    pub fn admitted(mut self, rejected: &mut u64, clamped: &mut u64) -> Option<CameraSample> {
+        match self.bound() {
+            SampleBound::NonFinite => {
+                *rejected += 1;
+                return None;
+            }
+            SampleBound::Clamped => *clamped += 1,
+            SampleBound::Within => {}
+        }
+        Some(self)
+    }
 }
 
 /// How the previous vertex sampled the ray that arrives at the current one (for MIS).

@@ -36,7 +36,7 @@ use glint_core::random::SampleStream;
 use glint_core::{PixelFilter, PixelSampler, Ray, Rgb, Vec2, Vec3};
 use glint_filter::Filter;
 use glint_scene::{Camera, limits};
-use integrator::{CameraSample, IndirectMode, Integrator, PathParams, SampleBound};
+use integrator::{CameraSample, IndirectMode, Integrator, PathParams};
 use lights::LightSet;
 use lookup::GuideMap;
 pub use progressive::PathAccumulator;
@@ -474,16 +474,10 @@ fn trace_guides(
         };
         tracer.samples(gs.len(), count, request, |k, s, _, cs| {
             let (g, a) = (&mut gs[k], &mut accs[k]);
-            let mut cs = *cs;
-            match cs.bound() {
-                SampleBound::NonFinite => {
-                    rejected += 1;
-                    a.samples += !filtered as u32;
-                    return;
-                }
-                SampleBound::Clamped => clamped += 1,
-                SampleBound::Within => {}
-            }
+            let Some(cs) = cs.admitted(&mut rejected, &mut clamped) else {
+                a.samples += !filtered as u32;
+                return;
+            };
             let cs = &cs;
             if s == 0 {
                 g.sample = *cs;
@@ -573,15 +567,7 @@ fn trace_lookups(
         tracer.samples(accs.len(), further, request, |k, _, pos, cs| {
             let a = &mut accs[k];
             a.samples += 1;
-            let mut cs = *cs;
-            match cs.bound() {
-                SampleBound::NonFinite => {
-                    rejected += 1;
-                    return;
-                }
-                SampleBound::Clamped => clamped += 1,
-                SampleBound::Within => {}
-            }
+            let Some(cs) = cs.admitted(&mut rejected, &mut clamped) else { return };
             let indirect = match cs.guide {
                 Some(q) => map.choose(pos, q.normal, q.depth).map_or(Rgb::ZERO, |j| filtered_indirect[j]),
                 None => Rgb::ZERO,

@@ -20,7 +20,7 @@
 //! are kept between frames. Samples are traced by the settings' [`super::PathKernel`] (the
 //! wavefront tracer by default).
 
-use super::integrator::{GuideGeometry, IndirectMode, SampleBound};
+use super::integrator::{GuideGeometry, IndirectMode};
 use super::wavefront::Request;
 use super::{BAND_ROWS, FilterBuffers, Frame, PathSettings, Tracer, depth_scale, filter_indirect};
 use crate::bands::{self, Hooks};
@@ -145,15 +145,7 @@ impl PathAccumulator {
             tracer.samples(sums.len(), path.spp as u64, request, |k, s, _, cs| {
                 let a = &mut sums[k];
                 a.samples += 1;
-                let mut cs = *cs;
-                match cs.bound() {
-                    SampleBound::NonFinite => {
-                        rejected += 1;
-                        return;
-                    }
-                    SampleBound::Clamped => clamped += 1,
-                    SampleBound::Within => {}
-                }
+                let Some(cs) = cs.admitted(&mut rejected, &mut clamped) else { return };
                 if first && s == 0 {
                     guides[k] = cs.guide;
                     albedos[k] = cs.albedo;
