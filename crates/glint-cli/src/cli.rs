@@ -629,6 +629,11 @@ pub struct BenchFiltersArgs {
     pub reps: usize,
     #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub threads: Option<usize>,
+    /// Catch a regression: each filter's median over the guided 4-D filter's (r = 28) from
+    /// the same run must stay within 2x the ratio recorded in BENCHMARKS.md 6.1; a filter past
+    /// it is named and the command fails. Meant for the default size.
+    #[arg(long)]
+    pub check: bool,
 }
 
 #[derive(Args, Debug)]
