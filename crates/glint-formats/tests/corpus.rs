@@ -270,6 +270,12 @@ fn malformed_gltf() {
     // validation (caught, but reported as "the glTF parser failed"); now checked first.
     let found = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/corpus/gltf/position_accessor_missing.gltf");
     assert_clean_error(&found, Loader::Any, "POSITION: accessors[0] does not exist");
+    // Found by fuzzing: a .glb header of version 60 and length 0 made the `gltf` crate
+    // subtract past zero (a panic with overflow checks, as tests build); refused first.
+    let found = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/corpus/gltf/glb_length_zero.glb");
+    assert_clean_error(&found, Loader::Any, ".glb version 60");
+    let short = d.write("short.glb", b"glTF\x02\0\0\0\x0c\0\0\0".to_vec());
+    assert_clean_error(&short, Loader::Any, "declares 12 bytes");
     #[cfg(unix)]
     {
         let zero =

@@ -127,11 +127,36 @@ fn gltf_error(path: &Path, e: gltf::Error) -> FormatError {
     }
 }
 
+/// A .glb's 12-byte header, checked before the `gltf` crate reads it: its reader subtracts
+/// the header size from the declared length unchecked (an overflow panic in builds with
+/// overflow checks, found by fuzzing: tests/corpus/gltf/glb_length_zero.glb). Version 2, and a
+/// length that holds the header and one chunk header and no more than the file.
+fn check_glb_header(data: &[u8]) -> Result<(), String> {
+    if !data.starts_with(b"glTF") {
+        return Ok(());
+    }
+    let word = |i: usize| data.get(i..i + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+    let (Some(version), Some(length)) = (word(4), word(8)) else {
+        return Err(format!("the .glb header is cut short ({} of its 12 bytes)", data.len()));
+    };
+    if version != 2 {
+        return Err(format!(".glb version {version}: glint reads glTF 2.0 containers"));
+    }
+    if length < 20 || length as usize > data.len() {
+        return Err(format!(
+            "the .glb header declares {length} bytes; the container needs at least 20 and the file has {}",
+            data.len()
+        ));
+    }
+    Ok(())
+}
+
 /// The document, validated. The `gltf` crate's validation indexes a primitive's POSITION
 /// accessor without checking that it exists (a panic, found by fuzzing:
 /// tests/corpus/gltf/position_accessor_missing.gltf), so that reference is checked first.
 fn parse(path: &Path, data: &[u8]) -> Result<Gltf, FormatError> {
     use gltf::json::validation::{Checked, Validate};
+    check_glb_header(data).map_err(|m| FormatError::malformed(path, "header", m))?;
     let gltf = Gltf::from_slice_without_validation(data).map_err(|e| gltf_error(path, e))?;
     let root = gltf.document.as_json();
     for (m, mesh) in root.meshes.iter().enumerate() {
