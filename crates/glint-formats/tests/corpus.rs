@@ -274,7 +274,7 @@ fn malformed_gltf() {
     // subtract past zero (a panic with overflow checks, as tests build); refused first.
     let found = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/corpus/gltf/glb_length_zero.glb");
     assert_clean_error(&found, Loader::Any, ".glb version 60");
-    let short = d.write("short.glb", b"glTF\x02\0\0\0\x0c\0\0\0".to_vec());
+    let short = d.write("short.glb", b"glTF\x02\0\0\0\x0c\0\0\0");
     assert_clean_error(&short, Loader::Any, "declares 12 bytes");
     #[cfg(unix)]
     {

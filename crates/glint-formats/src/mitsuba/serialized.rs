@@ -98,9 +98,10 @@ pub(super) fn parse(path: &Path, data: &[u8], shape_index: u32) -> Result<Serial
         v => return Err(bad("header", format!("version {v} is not supported (3 or 4)"))),
     }
     .ok_or_else(|| bad("table of contents", "the offset table is cut off".into()))?;
-    let offset = usize::try_from(offset).ok().filter(|&o| o + 4 <= end).ok_or_else(|| {
-        bad("table of contents", format!("mesh {shape_index} starts at byte {offset}, past the end of the file"))
-    })?;
+    let offset =
+        usize::try_from(offset).ok().filter(|&o| o.checked_add(4).is_some_and(|e| e <= end)).ok_or_else(|| {
+            bad("table of contents", format!("mesh {shape_index} starts at byte {offset}, past the end of the file"))
+        })?;
     let place = format!("mesh {shape_index} (byte {offset})");
     if u16_at(data, offset) != Some(FORMAT_ID) || u16_at(data, offset + 2) != Some(version) {
         return Err(bad(&place, "no mesh header at the offset the table gives".into()));
