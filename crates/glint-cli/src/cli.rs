@@ -81,8 +81,8 @@ pub struct SceneArgs {
     /// `<default>`); repeatable.
     #[arg(short = 'D', value_name = "NAME=VALUE")]
     pub define: Vec<String>,
-    /// Mitsuba XML and glTF: what glint cannot represent becomes one warning each and the
-    /// nearest supported thing, not an error.
+    /// Mitsuba XML: what glint cannot represent becomes one warning each and the nearest
+    /// supported thing, not an error.
     #[arg(long)]
     pub lenient: bool,
     /// glTF: render from the camera of this name (default: the first camera in node order).

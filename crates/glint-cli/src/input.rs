@@ -49,8 +49,8 @@ pub fn load_scene(path: Option<&Path>, colour_by: ColourBy, args: &SceneArgs, qu
     if args.camera_name.is_some() && kind != "gltf" {
         bail!("--camera-name picks a camera of a glTF file (.gltf, .glb); this input is not one");
     }
-    if args.lenient && kind != "xml" && kind != "gltf" {
-        bail!("--lenient applies to Mitsuba XML and glTF files; this input is neither");
+    if args.lenient && kind != "xml" {
+        bail!("--lenient applies to Mitsuba XML files (.xml); this input is not one");
     }
     let policy = match &args.sandbox {
         Some(dir) => glint_formats::FilePolicy::sandbox(dir).context("--sandbox")?,
@@ -74,7 +74,7 @@ fn load_policed(
             glint_formats::Loaded { scene: m.scene, warnings: m.warnings }
         }
         Some(p) if kind == "gltf" => {
-            let o = glint_formats::GltfOptions { camera_name: args.camera_name.clone(), lenient: args.lenient };
+            let o = glint_formats::GltfOptions { camera_name: args.camera_name.clone() };
             glint_formats::load_gltf(p, &o).with_context(|| format!("cannot load {}", p.display()))?
         }
         Some(p) => glint_formats::load_with(p, options).with_context(|| format!("cannot load {}", p.display()))?,

@@ -265,6 +265,7 @@ fn framing(bounds: Bounds3, elevated: bool, aspect: f32) -> (Camera, Vec<Light>)
             forward: -Vec3::Z,
             up: Vec3::Y,
             fov: Fov::Vertical(MODEL_FOV_DEG),
+            lens: glint_scene::Lens::Pinhole,
         }
     };
     let key = Light::Point {

@@ -104,6 +104,7 @@ fn every_shipped_sky_renders_like_its_golden_image() {
             forward: Vec3::new(0.35, 0.25, -1.0),
             up: Vec3::Y,
             fov: Fov::Vertical(90.0),
+            lens: glint_scene::Lens::Pinhole,
         };
         let world = World::new(scene);
         let mut settings = Settings::from_defaults(&world.scene().render);

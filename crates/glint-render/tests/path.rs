@@ -97,6 +97,7 @@ fn closed_emitting_sphere_sums_the_geometric_series() {
         uvs: None,
         triangles: ico.triangles,
         triangle_materials: None,
+        attributes: Vec::new(),
     };
     let shapes = [Shape::Mesh(0), Shape::Sphere { centre: Vec3::ZERO, radius: 1.0 }];
     for shape in shapes {

@@ -85,7 +85,13 @@ fn every_face_reads_the_right_way_round() {
         (5, Vec3::Z, Vec3::Y),   // back
     ];
     for (face, forward, up) in views {
-        let camera = Camera { position: Vec3::new(3.0, -2.0, 7.0), forward, up, fov: Fov::Vertical(90.0) };
+        let camera = Camera {
+            position: Vec3::new(3.0, -2.0, 7.0),
+            forward,
+            up,
+            fov: Fov::Vertical(90.0),
+            lens: glint_scene::Lens::Pinhole,
+        };
         let sky = Sky::CubeMap { map: map.clone(), transform: SkyTransform::default() };
         let seen = render_colours(sky_only(camera, sky), n as u32, n as u32);
         let stored = &faces[face].texels;
@@ -108,8 +114,13 @@ fn moving_the_camera_leaves_the_sky_bit_identical() {
         Sky::CubeMap { map: cube, transform: SkyTransform::default() },
     ] {
         let at = |p: Vec3| {
-            let camera =
-                Camera { position: p, forward: Vec3::new(0.3, 0.2, -1.0), up: Vec3::Y, fov: Fov::Vertical(60.0) };
+            let camera = Camera {
+                position: p,
+                forward: Vec3::new(0.3, 0.2, -1.0),
+                up: Vec3::Y,
+                fov: Fov::Vertical(60.0),
+                lens: glint_scene::Lens::Pinhole,
+            };
             render_colours(sky_only(camera, sky.clone()), 48, 32)
         };
         let a = at(Vec3::ZERO);
@@ -125,8 +136,13 @@ fn minified_faces_do_not_alias() {
     let n = 1024usize;
     let checks = glint_testkit::skies::checker_face(n);
     let map = Arc::new(CubeMap::from_faces(std::array::from_fn(|_| checks.clone())).unwrap());
-    let camera =
-        Camera { position: Vec3::ZERO, forward: Vec3::new(0.2, 0.1, -1.0), up: Vec3::Y, fov: Fov::Vertical(90.0) };
+    let camera = Camera {
+        position: Vec3::ZERO,
+        forward: Vec3::new(0.2, 0.1, -1.0),
+        up: Vec3::Y,
+        fov: Fov::Vertical(90.0),
+        lens: glint_scene::Lens::Pinhole,
+    };
     let seen =
         render_colours(sky_only(camera, Sky::CubeMap { map: map.clone(), transform: SkyTransform::default() }), 64, 64);
     let worst = seen.iter().map(|c| (c.x - 0.5).abs()).fold(0.0f32, f32::max);
@@ -159,6 +175,7 @@ fn schlick_reflection_follows_the_viewing_angle() {
         forward: Vec3::new(0.0, -1.0, -1.0),
         up: Vec3::Y,
         fov: Fov::Vertical(60.0),
+        lens: glint_scene::Lens::Pinhole,
     };
     let scene = Scene {
         camera,
@@ -202,8 +219,13 @@ fn schlick_reflection_follows_the_viewing_angle() {
 fn the_sky_is_the_ambient_light() {
     let matte =
         Material { colour: Rgb::new(0.5, 0.5, 0.25), ambient: 1.0, diffuse: 0.0, specular: 0.0, ..Material::default() };
-    let camera =
-        Camera { position: Vec3::new(0.0, 0.0, 4.0), forward: -Vec3::Z, up: Vec3::Y, fov: Fov::Vertical(40.0) };
+    let camera = Camera {
+        position: Vec3::new(0.0, 0.0, 4.0),
+        forward: -Vec3::Z,
+        up: Vec3::Y,
+        fov: Fov::Vertical(40.0),
+        lens: glint_scene::Lens::Pinhole,
+    };
     let mut scene = Scene {
         camera,
         sky: Sky::Colour(Rgb::splat(2.0)),

@@ -29,7 +29,13 @@ fn centre_colour(world: &World, w: u32, h: u32) -> Rgb {
 #[test]
 fn lambert_sphere_matches_closed_form() {
     let scene = Scene {
-        camera: Camera { position: Vec3::new(0.0, 0.0, 5.0), forward: -Vec3::Z, up: Vec3::Y, fov: Fov::Vertical(30.0) },
+        camera: Camera {
+            position: Vec3::new(0.0, 0.0, 5.0),
+            forward: -Vec3::Z,
+            up: Vec3::Y,
+            fov: Fov::Vertical(30.0),
+            lens: glint_scene::Lens::Pinhole,
+        },
         sky: Sky::Colour(Rgb::ZERO),
         materials: vec![matte(Rgb::new(0.5, 0.25, 1.0))],
         objects: vec![object("s", Shape::Sphere { centre: Vec3::ZERO, radius: 1.0 }, 0)],
@@ -94,7 +100,13 @@ fn mirror_reflects_the_sky_with_its_weight() {
         ..Material::default()
     };
     let scene = Scene {
-        camera: Camera { position: Vec3::new(0.0, 0.0, 5.0), forward: -Vec3::Z, up: Vec3::Y, fov: Fov::Vertical(20.0) },
+        camera: Camera {
+            position: Vec3::new(0.0, 0.0, 5.0),
+            forward: -Vec3::Z,
+            up: Vec3::Y,
+            fov: Fov::Vertical(20.0),
+            lens: glint_scene::Lens::Pinhole,
+        },
         sky: Sky::Colour(Rgb::new(0.2, 0.4, 0.8)),
         materials: vec![mirror],
         objects: vec![object("wall", Shape::Plane { normal: Vec3::Z, offset: 0.0 }, 0)],
@@ -119,7 +131,13 @@ fn facing_mirrors_terminate_at_max_depth() {
         ..Material::default()
     };
     let mut scene = Scene {
-        camera: Camera { position: Vec3::new(0.0, 0.0, 0.0), forward: -Vec3::Z, up: Vec3::Y, fov: Fov::Vertical(1.0) },
+        camera: Camera {
+            position: Vec3::new(0.0, 0.0, 0.0),
+            forward: -Vec3::Z,
+            up: Vec3::Y,
+            fov: Fov::Vertical(1.0),
+            lens: glint_scene::Lens::Pinhole,
+        },
         ambient: Rgb::ONE,
         materials: vec![mirror],
         objects: vec![
@@ -172,7 +190,13 @@ fn glass_transmits_by_fresnel_and_refracted_rays_see_the_sky() {
         ..Mesh::default()
     };
     let scene = Scene {
-        camera: Camera { position: Vec3::new(0.0, 0.0, 5.0), forward: -Vec3::Z, up: Vec3::Y, fov: Fov::Vertical(2.0) },
+        camera: Camera {
+            position: Vec3::new(0.0, 0.0, 5.0),
+            forward: -Vec3::Z,
+            up: Vec3::Y,
+            fov: Fov::Vertical(2.0),
+            lens: glint_scene::Lens::Pinhole,
+        },
         sky: Sky::Gradient { zenith: Rgb::ONE, horizon: Rgb::ONE, ground: Rgb::ONE },
         materials: vec![glass],
         meshes: vec![Arc::new(slab)],
@@ -200,6 +224,7 @@ fn no_self_intersection_far_from_the_origin() {
                 forward: -Vec3::Z,
                 up: Vec3::Y,
                 fov: Fov::Vertical(40.0),
+                lens: glint_scene::Lens::Pinhole,
             },
             sky: Sky::Colour(Rgb::ZERO),
             materials: vec![matte(Rgb::ONE)],

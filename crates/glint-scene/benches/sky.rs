@@ -20,8 +20,13 @@ fn pattern(d: Vec3) -> Rgb {
 
 /// Directions of a 640×360 camera (60° vertical field), in pixel order.
 fn coherent() -> Vec<Vec3> {
-    let cam =
-        Camera { position: Vec3::ZERO, forward: Vec3::new(0.3, 0.1, -1.0), up: Vec3::Y, fov: Fov::Vertical(60.0) };
+    let cam = Camera {
+        position: Vec3::ZERO,
+        forward: Vec3::new(0.3, 0.1, -1.0),
+        up: Vec3::Y,
+        fov: Fov::Vertical(60.0),
+        lens: glint_scene::Lens::Pinhole,
+    };
     let rays = cam.rays(640, 360);
     (0..COUNT).map(|i| rays.ray(Vec2::new((i % 640) as f32 + 0.5, (i / 640) as f32 + 0.5)).dir).collect()
 }

@@ -11,8 +11,13 @@ fn main() {
     let pattern = |d: Vec3| Rgb::new(d.x.abs(), d.y.abs(), d.z.abs());
     let cube = CubeMap::from_fn(256, pattern);
     let latlong = LatLongMap::from_fn(64, pattern);
-    let cam =
-        Camera { position: Vec3::ZERO, forward: Vec3::new(0.3, 0.1, -1.0), up: Vec3::Y, fov: Fov::Vertical(60.0) };
+    let cam = Camera {
+        position: Vec3::ZERO,
+        forward: Vec3::new(0.3, 0.1, -1.0),
+        up: Vec3::Y,
+        fov: Fov::Vertical(60.0),
+        lens: glint_scene::Lens::Pinhole,
+    };
     let rays = cam.rays(640, 360);
     let dirs: Vec<Vec3> =
         (0..640 * 360).map(|i| rays.ray(Vec2::new((i % 640) as f32 + 0.5, (i / 640) as f32 + 0.5)).dir).collect();

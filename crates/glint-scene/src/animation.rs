@@ -180,18 +180,31 @@ impl Animation {
             Light::Directional { direction, colour, intensity } => {
                 Light::Directional { direction: turn(direction), colour, intensity }
             }
-            Light::Spot { position, direction, inner_deg, outer_deg, colour, intensity, attenuation, falloff } => {
-                Light::Spot {
-                    position: m.transform_point3(position),
-                    direction: turn(direction),
-                    inner_deg,
-                    outer_deg,
-                    colour,
-                    intensity,
-                    attenuation,
-                    falloff,
-                }
-            }
+            Light::Spot {
+                position,
+                direction,
+                inner_deg,
+                outer_deg,
+                colour,
+                intensity,
+                attenuation,
+                falloff,
+                projection,
+            } => Light::Spot {
+                position: m.transform_point3(position),
+                direction: turn(direction),
+                inner_deg,
+                outer_deg,
+                colour,
+                intensity,
+                attenuation,
+                falloff,
+                projection: projection.map(|p| crate::light::SpotProjection {
+                    right: turn(p.right),
+                    up: turn(p.up),
+                    ..p
+                }),
+            },
         })
     }
 }
@@ -470,6 +483,7 @@ mod tests {
                     intensity: 1.0,
                     attenuation: Default::default(),
                     falloff: Default::default(),
+                    projection: None,
                 },
             ],
             ..Scene::default()

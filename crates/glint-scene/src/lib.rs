@@ -25,11 +25,11 @@ pub mod texture;
 
 pub use animation::{Animation, AnimationBase, AnimationTarget, Keyframes, Motion, Repeat, Rotation};
 pub use bsdf::{BsdfId, BsdfKind, Distribution, Principled, Roughness, Tex};
-pub use camera::{Camera, CameraRays, Fov};
+pub use camera::{Camera, CameraRays, Fov, Lens, ViewSize};
 pub use error::SceneError;
-pub use light::{Attenuation, Light, SpotFalloff};
+pub use light::{Attenuation, Light, SpotFalloff, SpotProjection};
 pub use material::Material;
-pub use mesh::{MAX_COORDINATE, Mesh};
+pub use mesh::{MAX_COORDINATE, Mesh, MeshAttribute};
 pub use object::{CloudObject, Object, Shape};
 pub use points::{EstimateSettings, Orientation, PointCloud, estimate_normals, estimate_radii, prepare, sample_mesh};
 pub use scene::{RenderDefaults, RenderMode, Scene};

@@ -51,7 +51,35 @@ pub enum Light {
         intensity: f32,
         attenuation: Attenuation,
         falloff: SpotFalloff,
+        /// A texture projected along the cone (Mitsuba's spot `texture`), or none.
+        projection: Option<SpotProjection>,
     },
+}
+
+/// A texture a spot light projects: the direction `d` leaving the light (in the light's frame
+/// `right`, `up`, `direction`, with `d·direction` = z) reads the texture at Mitsuba's
+/// `(½ + ½ x/(z·tan c), ½ + ½ y/(z·tan c))` for the cutoff angle c, v flipped to glint's
+/// convention (src/emitters/spot.cpp `direction_to_uv`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpotProjection {
+    /// Index into [`crate::Scene::textures`] (read by uv).
+    pub texture: usize,
+    /// The light frame's unit x and y axes (Mitsuba's `to_world` applied to them).
+    pub right: Vec3,
+    pub up: Vec3,
+    /// tan of the cutoff (outer) angle: the texture's edge.
+    pub tan_cutoff: f32,
+}
+
+impl SpotProjection {
+    /// The texture coordinates (glint's) of the direction `d` leaving the light along its
+    /// axis `direction`.
+    #[must_use]
+    pub fn uv(&self, d: Vec3, direction: Vec3) -> glint_core::Vec2 {
+        let z = d.dot(direction) * self.tan_cutoff;
+        let (x, y) = (d.dot(self.right) / z, d.dot(self.up) / z);
+        glint_core::Vec2::new(0.5 + 0.5 * x, 1.0 - (0.5 + 0.5 * y))
+    }
 }
 
 /// What a shading point receives from one light, before visibility.
@@ -66,8 +94,27 @@ pub struct LightSample {
 }
 
 impl Light {
+    /// [`Light::sample_at`] with a spot light's projected texture applied (`textures`: the
+    /// scene's).
+    #[must_use]
+    pub fn sample_in(&self, p: Vec3, textures: &[crate::Texture]) -> Option<LightSample> {
+        let mut s = self.sample_at(p)?;
+        if let Light::Spot { direction, projection: Some(proj), .. } = *self {
+            let texel = textures.get(proj.texture).map_or(Rgb::ONE, |t| t.evaluate(proj.uv(-s.wi, direction)));
+            s.radiance *= texel;
+        }
+        Some(s)
+    }
+
+    /// Does this light project a texture (then only [`Light::sample_in`] gives its light)?
+    #[must_use]
+    pub fn is_textured(&self) -> bool {
+        matches!(self, Light::Spot { projection: Some(_), .. })
+    }
+
     /// Direction, distance and intensity of this light as seen from `p`. `None` when the
-    /// light cannot reach `p` (outside a spot cone, or at the light's position).
+    /// light cannot reach `p` (outside a spot cone, or at the light's position). A spot's
+    /// projected texture is not applied here (see [`Light::sample_in`]).
     pub fn sample_at(&self, p: Vec3) -> Option<LightSample> {
         match *self {
             Light::Point { position, colour, intensity, attenuation } => {
@@ -91,6 +138,7 @@ impl Light {
                 intensity,
                 attenuation,
                 falloff: curve,
+                ..
             } => {
                 let d = position - p;
                 let dist = d.length();
@@ -192,6 +240,7 @@ mod tests {
             intensity: 1.0,
             attenuation: Attenuation::None,
             falloff: SpotFalloff::LinearAngle,
+            projection: None,
         };
         let p = Vec3::new(17.5f32.to_radians().tan(), 0.0, 0.0);
         let s = spot.sample_at(p).expect("inside the cone");
@@ -210,5 +259,37 @@ mod tests {
         assert_eq!(s.wi, Vec3::Y);
         assert_eq!(s.distance, 2.0);
         assert!((s.radiance.x - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_projected_texture_spans_the_cutoff_cone() {
+        let proj = SpotProjection { texture: 0, right: Vec3::X, up: Vec3::Y, tan_cutoff: 20f32.to_radians().tan() };
+        let axis = Vec3::Z;
+        let uv = |deg_x: f32, deg_y: f32| {
+            let d = Vec3::new(deg_x.to_radians().tan(), deg_y.to_radians().tan(), 1.0).normalize();
+            proj.uv(d, axis)
+        };
+        assert!((uv(0.0, 0.0) - glint_core::Vec2::splat(0.5)).length() < 1e-6);
+        // The cutoff along +x is the texture's right edge; along +y (up) its top row (v = 0).
+        assert!((uv(20.0, 0.0) - glint_core::Vec2::new(1.0, 0.5)).length() < 1e-5, "{}", uv(20.0, 0.0));
+        assert!((uv(0.0, 20.0) - glint_core::Vec2::new(0.5, 0.0)).length() < 1e-5, "{}", uv(0.0, 20.0));
+        // sample_in multiplies the spot's light by the texel there.
+        let texture = crate::Texture::Checker { size: 0.5, even: Rgb::splat(0.25), odd: Rgb::ONE };
+        let spot = Light::Spot {
+            position: Vec3::ZERO,
+            direction: axis,
+            inner_deg: 20.0,
+            outer_deg: 20.0,
+            colour: Rgb::ONE,
+            intensity: 1.0,
+            attenuation: Attenuation::None,
+            falloff: SpotFalloff::LinearAngle,
+            projection: Some(proj),
+        };
+        let p = Vec3::new(-0.1, -0.1, 1.0);
+        let plain = spot.sample_at(p).expect("in the cone").radiance;
+        let lit = spot.sample_in(p, std::slice::from_ref(&texture)).expect("in the cone").radiance;
+        let want = texture.evaluate(proj.uv(p.normalize(), axis));
+        assert!(spot.is_textured() && (lit - plain * want).abs().max_element() < 1e-6, "{lit} vs {plain} × {want}");
     }
 }

@@ -1,6 +1,6 @@
 //! Indexed triangle meshes.
 
-use glint_core::{Bounds3, Vec2, Vec3};
+use glint_core::{Bounds3, Rgb, Vec2, Vec3};
 
 /// The largest vertex coordinate (in magnitude) a mesh may have. Ray–triangle tests multiply
 /// coordinates in pairs (edge cross products, determinants), which stays finite in f32 up to
@@ -18,6 +18,26 @@ pub struct Mesh {
     pub triangles: Vec<[u32; 3]>,
     /// Per-triangle material index into `Scene::materials`; `None` uses the object's material.
     pub triangle_materials: Option<Vec<u32>>,
+    /// Values a file attaches to vertices or faces (Mitsuba's mesh attributes, read from PLY
+    /// properties: `vertex_color`, `face_color`, …), read by [`crate::Texture::MeshAttribute`].
+    pub attributes: Vec<MeshAttribute>,
+}
+
+/// A named value per vertex or per triangle, one or three channels (one is stored grey).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshAttribute {
+    /// Mitsuba's name: `vertex_*` for per-vertex values, `face_*` for per-face ones.
+    pub name: String,
+    /// One per vertex, or one per triangle (a polygon's value repeated over its triangles).
+    pub values: Vec<Rgb>,
+}
+
+impl MeshAttribute {
+    /// Is this a per-face attribute (by Mitsuba's naming)?
+    #[must_use]
+    pub fn per_face(&self) -> bool {
+        self.name.starts_with("face_")
+    }
 }
 
 impl Mesh {
@@ -37,7 +57,7 @@ impl Mesh {
     }
 
     /// Remove triangles of zero area (and those whose area is not a finite number); returns how
-    /// many were removed. Per-triangle materials follow their triangles.
+    /// many were removed. Per-triangle materials and face attributes follow their triangles.
     pub fn remove_degenerate_triangles(&mut self) -> usize {
         let keep: Vec<bool> = (0..self.triangles.len())
             .map(|i| {
@@ -105,7 +125,25 @@ impl Mesh {
             let mut k = keep.iter();
             m.retain(|_| *k.next().unwrap_or(&true));
         }
+        for a in self.attributes.iter_mut().filter(|a| a.per_face()) {
+            let mut k = keep.iter();
+            a.values.retain(|_| *k.next().unwrap_or(&true));
+        }
         removed
+    }
+
+    /// The attribute `name` at barycentric position (`b1`, `b2`) of triangle `triangle`: the
+    /// face's value, or the vertices' values interpolated. `None` when the mesh has no such
+    /// attribute.
+    #[must_use]
+    pub fn attribute_at(&self, name: &str, triangle: usize, b1: f32, b2: f32) -> Option<Rgb> {
+        let a = self.attributes.iter().find(|a| a.name == name)?;
+        if a.per_face() {
+            return a.values.get(triangle).copied();
+        }
+        let [i0, i1, i2] = self.triangles.get(triangle)?.map(|i| i as usize);
+        let (v0, v1, v2) = (*a.values.get(i0)?, *a.values.get(i1)?, *a.values.get(i2)?);
+        Some(v0 * (1.0 - b1 - b2) + v1 * b1 + v2 * b2)
     }
 
     /// Area-weighted vertex normals, for meshes that have none.

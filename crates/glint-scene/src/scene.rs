@@ -172,6 +172,25 @@ impl Scene {
         if !(fov > 0.0 && fov < 180.0) {
             return Err(SceneError::invalid("camera", format!("field of view {fov}° must be in (0, 180)")));
         }
+        match c.lens {
+            crate::Lens::Pinhole => {}
+            crate::Lens::ThinLens { aperture_radius: r, focus_distance: f } => {
+                if !(r.is_finite() && r >= 0.0 && f.is_finite() && f > 0.0) {
+                    return Err(SceneError::invalid(
+                        "camera",
+                        format!("thin lens: aperture radius {r} must be >= 0 and focus distance {f} > 0, both finite"),
+                    ));
+                }
+            }
+            crate::Lens::Orthographic(crate::ViewSize::HalfWidth(h) | crate::ViewSize::HalfHeight(h)) => {
+                if !(h.is_finite() && h > 0.0) {
+                    return Err(SceneError::invalid(
+                        "camera",
+                        format!("orthographic view size {h} must be finite and > 0"),
+                    ));
+                }
+            }
+        }
         if !finite3(self.ambient) || self.ambient.min_element() < 0.0 {
             return Err(SceneError::invalid("ambient", "must be a finite, non-negative colour"));
         }

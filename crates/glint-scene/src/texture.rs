@@ -117,9 +117,20 @@ pub enum Texture {
     Image { image: Arc<TextureImage>, scale: Vec2, sampler: Sampler },
     /// Squares of side `size` (in uv units) alternating `even` and `odd`.
     Checker { size: f32, even: Rgb, odd: Rgb },
+    /// The hit mesh's attribute `name` ([`crate::MeshAttribute`]: a face's value or its
+    /// vertices' values interpolated), times `scale` (Mitsuba's `mesh_attribute`). Not a
+    /// function of uv: renderers read it through the hit; [`Texture::evaluate`] sees only
+    /// uv and gives `scale` (what a surface without the attribute shows, as Mitsuba's 1).
+    MeshAttribute { name: String, scale: f32 },
 }
 
 impl Texture {
+    /// Does this texture read the hit's mesh rather than its uv?
+    #[must_use]
+    pub fn reads_mesh(&self) -> bool {
+        matches!(self, Texture::MeshAttribute { .. })
+    }
+
     #[inline]
     pub fn evaluate(&self, uv: Vec2) -> Rgb {
         match self {
@@ -130,6 +141,7 @@ impl Texture {
                 let c = (uv / *size).floor();
                 if (c.x as i64 + c.y as i64).rem_euclid(2) == 0 { *even } else { *odd }
             }
+            Texture::MeshAttribute { scale, .. } => Rgb::splat(*scale),
         }
     }
 }

@@ -65,6 +65,8 @@ pub struct CameraController {
     /// Fly speed in scene units per second.
     pub speed: f32,
     pub fov: Fov,
+    /// The scene camera's lens, kept as the camera moves.
+    pub lens: glint_scene::Lens,
 }
 
 /// Unit view direction for yaw and pitch.
@@ -101,6 +103,7 @@ impl CameraController {
             target,
             speed: DIAGONALS_PER_SECOND * diagonal,
             fov: camera.fov,
+            lens: camera.lens,
         }
     }
 
@@ -115,7 +118,7 @@ impl CameraController {
     }
 
     pub fn camera(&self) -> Camera {
-        Camera { position: self.position, forward: self.forward(), up: Vec3::Y, fov: self.fov }
+        Camera { position: self.position, forward: self.forward(), up: Vec3::Y, fov: self.fov, lens: self.lens }
     }
 
     /// Switch between fly and orbit; orbiting starts around the point the camera looks at.

@@ -1,16 +1,14 @@
-//! glTF cameras → glint's pinhole [`Camera`]: the camera's node gives the position (its
-//! origin), the view direction (its −Z) and up (its +Y).
+//! glTF cameras → glint's [`Camera`]: the camera's node gives the position (its origin), the
+//! view direction (its −Z) and up (its +Y).
 //!
 //! A perspective camera keeps its vertical field of view; its aspectRatio, when given, sets
-//! the default image size (720 rows, the width to match); znear and zfar are not used (glint
-//! does not clip). glint has no orthographic projection: an orthographic camera is an error,
-//! or, when loading leniently, a warning and a perspective camera at its place whose field of
-//! view spans the orthographic view's height (2·ymag) at the distance of the scene's centre.
+//! the default image size (720 rows, the width to match). An orthographic camera keeps its
+//! half height `ymag` (the width follows the image, whose default aspect is xmag / ymag).
+//! znear and zfar are not used (glint does not clip).
 
 use crate::error::FormatError;
-use crate::model::file_name;
-use glint_core::{Bounds3, Mat4, Vec3};
-use glint_scene::{Camera, Fov};
+use glint_core::{Mat4, Vec3};
+use glint_scene::{Camera, Fov, Lens, ViewSize};
 use std::path::Path;
 
 /// A camera met in the node walk.
@@ -75,14 +73,7 @@ pub(super) fn choose<'c>(
 }
 
 /// The glint camera for `chosen` and the image aspect (width / height) the file asks for.
-/// `bounds` (the scene's) place the perspective stand-in for an orthographic camera.
-pub(super) fn convert_camera(
-    path: &Path,
-    chosen: &NodeCamera,
-    bounds: Bounds3,
-    lenient: bool,
-    warnings: &mut Vec<String>,
-) -> Result<(Camera, Option<f32>), FormatError> {
+pub(super) fn convert_camera(path: &Path, chosen: &NodeCamera) -> Result<(Camera, Option<f32>), FormatError> {
     let place = format!("cameras[{}] (on nodes[{}])", chosen.camera, chosen.node);
     let world = chosen.world_from_node;
     let position = world.transform_point3(Vec3::ZERO);
@@ -103,29 +94,15 @@ pub(super) fn convert_camera(
             {
                 return Err(FormatError::malformed(path, place, format!("aspectRatio {a} must be > 0")));
             }
-            Ok((Camera { position, forward, up, fov: Fov::Vertical(fov) }, aspect))
+            Ok((Camera { position, forward, up, fov: Fov::Vertical(fov), lens: Lens::Pinhole }, aspect))
         }
         Projection::Orthographic { xmag, ymag } => {
-            if !lenient {
-                return Err(FormatError::malformed(
-                    path,
-                    place,
-                    "orthographic projection: glint's camera is a pinhole (perspective) camera; load leniently \
-                     for a perspective camera in its place, or name another camera",
-                ));
-            }
             let (xmag, ymag) = (xmag.abs(), ymag.abs());
             if !(xmag.is_finite() && ymag.is_finite() && xmag > 0.0 && ymag > 0.0) {
                 return Err(FormatError::malformed(path, place, "xmag and ymag must be finite and non-zero"));
             }
-            let distance = if bounds.is_empty() { 0.0 } else { (bounds.centre() - position).dot(forward) };
-            let fov = if distance > 1e-3 * ymag { 2.0 * (ymag / distance).atan().to_degrees() } else { 45.0 };
-            warnings.push(format!(
-                "{}: {place} is orthographic, which glint cannot render: using a perspective camera at its place \
-                 with a {fov:.1}° vertical field of view",
-                file_name(path)
-            ));
-            Ok((Camera { position, forward, up, fov: Fov::Vertical(fov) }, Some(xmag / ymag)))
+            let lens = Lens::Orthographic(ViewSize::HalfHeight(ymag));
+            Ok((Camera { position, forward, up, fov: Fov::Vertical(45.0), lens }, Some(xmag / ymag)))
         }
     }
 }

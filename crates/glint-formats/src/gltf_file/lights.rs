@@ -72,6 +72,7 @@ pub(super) fn convert_light(
                 intensity,
                 attenuation: Attenuation::InverseSquare,
                 falloff: SpotFalloff::SquaredCosine,
+                projection: None,
             }
         }
     })

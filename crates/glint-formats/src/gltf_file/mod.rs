@@ -28,7 +28,7 @@ use crate::model::{self, Model};
 use buffers::{check_views, read_buffers};
 use cameras::NodeCamera;
 use geometry::{Baked, NodeFrame};
-use glint_core::{Bounds3, Mat4, Quat, Vec3};
+use glint_core::{Mat4, Quat, Vec3};
 use glint_scene::{Light, RenderDefaults};
 use gltf::Gltf;
 use std::path::Path;
@@ -39,21 +39,17 @@ pub struct GltfOptions {
     /// The camera to look through, by the camera's name (or else its node's); `None`: the
     /// first camera of the scene, depth first in the order the file lists the nodes.
     pub camera_name: Option<String>,
-    /// Recover where glint can only approximate the file (an orthographic camera becomes a
-    /// perspective one), with a warning, instead of refusing it.
-    pub lenient: bool,
 }
 
 /// Reads a glTF file as a scene to render: its geometry, materials, camera and lights
 /// (see the module documentation for what is read and how it maps), validated.
 pub fn load_gltf(path: &Path, options: &GltfOptions) -> Result<Loaded, FormatError> {
     let GltfScene { mut model, cameras, lights } = read_guarded(path)?;
-    let mut warnings = std::mem::take(&mut model.warnings);
-    let bounds = model.meshes.iter().fold(Bounds3::EMPTY, |b, m| b.union(m.bounds()));
+    let warnings = std::mem::take(&mut model.warnings);
     let chosen = cameras::choose(path, &cameras, options.camera_name.as_deref())?;
     let mut scene = crate::scene_for_model(model);
     if let Some(chosen) = chosen {
-        let (camera, aspect) = cameras::convert_camera(path, chosen, bounds, options.lenient, &mut warnings)?;
+        let (camera, aspect) = cameras::convert_camera(path, chosen)?;
         scene.camera = camera;
         if let Some(aspect) = aspect {
             let height = RenderDefaults::default().height;

@@ -320,29 +320,22 @@ fn hierarchy_places_camera_and_lights_in_world_space() {
 }
 
 #[test]
-fn cameras_are_chosen_by_name_and_orthographic_ones_need_leniency() {
+fn cameras_are_chosen_by_name_and_orthographic_ones_keep_their_view() {
     let dir = TempDir::new("gltf-cameras");
     let path = write(&dir, "lit.gltf", &lit_scene());
-    let by_node = GltfOptions { camera_name: Some("eye".into()), lenient: false };
+    let by_node = GltfOptions { camera_name: Some("eye".into()) };
     assert_close(load_gltf(&path, &by_node).expect("node name").scene.camera.forward, -Vec3::X, "by node name");
 
-    let top = GltfOptions { camera_name: Some("top".into()), lenient: false };
-    let e = load_gltf(&path, &top).expect_err("orthographic");
-    let msg = e.to_string();
-    assert!(msg.starts_with(&path.display().to_string()) && msg.contains("cameras[1]"), "{msg}");
-    assert!(msg.contains("orthographic"), "{msg}");
-
-    let lenient = load_gltf(&path, &GltfOptions { lenient: true, ..top }).expect("lenient");
-    assert!(lenient.warnings.iter().any(|w| w.contains("orthographic")), "{:?}", lenient.warnings);
-    let cam = lenient.scene.camera;
+    let top = load_gltf(&path, &GltfOptions { camera_name: Some("top".into()) }).expect("orthographic");
+    let cam = top.scene.camera;
     assert_close(cam.position, Vec3::new(0.0, 10.0, -2.0), "top camera");
     assert_close(cam.forward, -Vec3::Y, "top camera looks down");
-    // ymag 1.5 at the scene's centre (y = 0.5), 9.5 below: 2·atan(1.5/9.5).
-    let Fov::Vertical(fov) = cam.fov else { panic!("vertical") };
-    assert!((fov - 2.0 * (1.5f32 / 9.5).atan().to_degrees()).abs() < 1e-3, "{fov}");
-    assert_eq!((lenient.scene.render.width, lenient.scene.render.height), (1440, 720));
+    // ymag 1.5 is the half height; xmag / ymag the default aspect.
+    assert_eq!(cam.lens, glint_scene::Lens::Orthographic(glint_scene::ViewSize::HalfHeight(1.5)));
+    assert_eq!((top.scene.render.width, top.scene.render.height), (1440, 720));
+    assert!(!top.warnings.iter().any(|w| w.contains("camera")), "{:?}", top.warnings);
 
-    let missing = GltfOptions { camera_name: Some("nope".into()), lenient: true };
+    let missing = GltfOptions { camera_name: Some("nope".into()) };
     let msg = load_gltf(&path, &missing).expect_err("no such camera").to_string();
     assert!(msg.contains("'nope'") && msg.contains("'persp'") && msg.contains("'top'"), "{msg}");
 }
@@ -694,7 +687,7 @@ fn real_gltf_files_in_shared_data_load_and_validate() {
         }
     }
     for p in &found {
-        let loaded = load_gltf(p, &GltfOptions { camera_name: None, lenient: true }).unwrap_or_else(|e| panic!("{e}"));
+        let loaded = load_gltf(p, &GltfOptions::default()).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(loaded.scene.validate(), Ok(()), "{}", p.display());
     }
     eprintln!("{} glTF files under shared/data", found.len());

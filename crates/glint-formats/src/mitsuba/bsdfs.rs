@@ -99,7 +99,7 @@ impl<'a> Builder<'a> {
                 let [(_, t)] = textures.as_slice() else {
                     return Err(el.loc.error("bumpmap needs one nested height texture"));
                 };
-                let height = self.texture(t)?;
+                let height = self.uv_texture(t, "bumpmap")?;
                 BsdfKind::BumpMap { height, scale, inner: self.one_inner(&p)? }
             }
             "normalmap" => {
@@ -107,7 +107,7 @@ impl<'a> Builder<'a> {
                 let [(_, t)] = textures.as_slice() else {
                     return Err(el.loc.error("normalmap needs one nested normal texture"));
                 };
-                let normals = self.texture(t)?;
+                let normals = self.uv_texture(t, "normalmap")?;
                 BsdfKind::NormalMap { normals, inner: self.one_inner(&p)? }
             }
             "blendbsdf" => {

@@ -19,7 +19,7 @@ use super::xml::Element;
 use crate::error::FormatError;
 use glint_core::glam::{DMat3, DMat4, DVec3};
 use glint_core::{Mat3, Rgb};
-use glint_scene::{Attenuation, LatLongMap, Light, Sky, SkyTransform, SpotFalloff, Tex};
+use glint_scene::{Attenuation, LatLongMap, Light, Sky, SkyTransform, SpotFalloff, SpotProjection, Tex};
 use std::f32::consts::PI;
 use std::sync::Arc;
 
@@ -58,7 +58,14 @@ impl<'a> Builder<'a> {
         if p.plugin != "area" {
             return Err(el.loc.error(format!("a shape's emitter must be 'area', not '{}'", p.plugin)));
         }
-        let radiance = self.rgb_tex(&p, "radiance", 1.0, Use::Emitter)?;
+        let mut radiance = self.rgb_tex(&p, "radiance", 1.0, Use::Emitter)?;
+        if let Tex::Texture(t) = radiance
+            && self.scene.textures[t].reads_mesh()
+        {
+            // Light sampling picks points by uv, not by the mesh's attributes.
+            self.unsupported(&el.loc, "an area emitter's radiance from a mesh_attribute: a constant 1 is used")?;
+            radiance = Tex::Value(Rgb::ONE);
+        }
         self.finish(&p)?;
         Ok(radiance)
     }
@@ -85,13 +92,6 @@ impl<'a> Builder<'a> {
             }
             "spot" => {
                 let intensity = self.emitted(&p, "intensity")?;
-                if p.has("texture") {
-                    self.unsupported(
-                        p.loc(),
-                        "a spot light's texture is not supported by glint: an untextured spot is used",
-                    )?;
-                    p.ignore(&["texture"]);
-                }
                 let cutoff = p.float("cutoff_angle", 20.0)?;
                 let beam = p.float("beam_width", cutoff * 0.75)?;
                 if !(cutoff > 0.0 && cutoff <= 180.0 && beam >= 0.0) {
@@ -103,6 +103,32 @@ impl<'a> Builder<'a> {
                     .transform_vector3(DVec3::Z)
                     .try_normalize()
                     .ok_or_else(|| el.loc.error("to_world maps +z to zero"))?;
+                let projection = match p.get("texture") {
+                    None => None,
+                    Some(prop) => {
+                        let super::props::Value::Object(t) = prop.value else {
+                            return Err(prop.at.loc.error("a spot light's texture must be a <texture>"));
+                        };
+                        if cutoff >= 90.0 {
+                            return Err(el.loc.error(format!(
+                                "a textured spot projects onto a plane ahead: cutoff_angle {cutoff} must be below 90"
+                            )));
+                        }
+                        let axis = |v: DVec3, name: &str| {
+                            world
+                                .transform_vector3(v)
+                                .try_normalize()
+                                .map(|v| v.as_vec3())
+                                .ok_or_else(|| el.loc.error(format!("to_world maps {name} to zero")))
+                        };
+                        Some(SpotProjection {
+                            texture: self.uv_texture(t, "spot light")?,
+                            right: axis(DVec3::X, "+x")?,
+                            up: axis(DVec3::Y, "+y")?,
+                            tan_cutoff: cutoff.to_radians().tan() as f32,
+                        })
+                    }
+                };
                 self.scene.lights.push(Light::Spot {
                     position: world.transform_point3(DVec3::ZERO).as_vec3(),
                     direction: direction.as_vec3(),
@@ -112,6 +138,7 @@ impl<'a> Builder<'a> {
                     intensity: 1.0,
                     attenuation: Attenuation::InverseSquare,
                     falloff: SpotFalloff::LinearAngle,
+                    projection,
                 });
             }
             "directional" => {

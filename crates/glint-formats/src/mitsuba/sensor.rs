@@ -1,7 +1,10 @@
-//! Sensors (perspective; thinlens and orthographic approximated), films, reconstruction
-//! filters, samplers and integrators → the camera and [`MitsubaSettings`]
-//! (src/sensors/perspective.cpp, include/mitsuba/render/sensor.h `parse_fov`, src/films,
-//! src/rfilters, src/samplers, src/integrators).
+//! Sensors (perspective, thinlens, orthographic), films, reconstruction filters, samplers and
+//! integrators → the camera and [`MitsubaSettings`] (src/sensors/perspective.cpp, thinlens.cpp,
+//! orthographic.cpp, include/mitsuba/render/sensor.h `parse_fov`, src/films, src/rfilters,
+//! src/samplers, src/integrators).
+//!
+//! An orthographic sensor sees camera-space x ∈ [−1, 1] and y ∈ [−1/aspect, 1/aspect] before
+//! `to_world`, so its view is as wide as twice the length `to_world` gives the x axis.
 //!
 //! Mitsuba's camera looks along its local +z with +y up, and its image x runs along local −x
 //! (`perspective_projection` scales by −½): for a proper rotation that is forward × up, glint's
@@ -14,7 +17,7 @@ use super::{Builder, MitsubaIntegrator, PixelFilter};
 use crate::error::FormatError;
 use glint_core::Vec3;
 use glint_core::glam::{DMat4, DVec3};
-use glint_scene::{Camera, Fov, limits::image_size_ok};
+use glint_scene::{Camera, Fov, Lens, ViewSize, limits::image_size_ok};
 
 const SAMPLERS: [&str; 5] = ["independent", "stratified", "multijitter", "ldsampler", "orthogonal"];
 
@@ -72,19 +75,8 @@ impl<'a> Builder<'a> {
         }
         self.has_sensor = true;
         let p = self.props(el)?;
-        match p.plugin {
-            "perspective" => {}
-            "thinlens" => {
-                self.unsupported(&el.loc, "thinlens sensor: rendered as a pinhole (aperture_radius ignored)")?;
-                p.ignore(&["aperture_radius"]);
-            }
-            "orthographic" => {
-                self.unsupported(
-                    &el.loc,
-                    "orthographic sensor: glint has no orthographic camera; a perspective one is used",
-                )?;
-            }
-            other => return self.unsupported(&el.loc, format!("sensor '{other}' is not supported")),
+        if !["perspective", "thinlens", "orthographic"].contains(&p.plugin) {
+            return self.unsupported(&el.loc, format!("sensor '{}' is not supported", p.plugin));
         }
         // Film first: the field of view depends on its aspect.
         for film in p.unnamed("film") {
@@ -103,7 +95,11 @@ impl<'a> Builder<'a> {
             self.finish(&s)?;
         }
         let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
-        let fov = self.fov(&p)?;
+        let (fov, lens) = match p.plugin {
+            "orthographic" => (Fov::Vertical(45.0), self.orthographic(el, &to_world)?),
+            "thinlens" => (self.fov(&p)?, thin_lens(&p)?),
+            _ => (self.fov(&p)?, Lens::Pinhole),
+        };
         p.ignore(&[
             "near_clip",
             "far_clip",
@@ -126,11 +122,31 @@ impl<'a> Builder<'a> {
             ));
         }
         let forward = forward.try_normalize().ok_or_else(|| el.loc.error("sensor to_world maps +z to zero"))?;
-        self.scene.camera = Camera { position: position.as_vec3(), forward: forward.as_vec3(), up: up.as_vec3(), fov };
+        self.scene.camera =
+            Camera { position: position.as_vec3(), forward: forward.as_vec3(), up: up.as_vec3(), fov, lens };
         if Vec3::cross(self.scene.camera.forward, self.scene.camera.up).length_squared() < 1e-12 {
             return Err(el.loc.error("sensor to_world: up is parallel to the view direction"));
         }
         self.finish(&p)
+    }
+
+    /// An orthographic sensor's view: half as wide as `to_world` makes camera-space x long;
+    /// its height follows the image's aspect, as Mitsuba's does when `to_world` scales x and y
+    /// alike (a warning when it does not: glint's pixels stay square).
+    fn orthographic(&mut self, el: &Element, to_world: &DMat4) -> Result<Lens, FormatError> {
+        let sx = to_world.transform_vector3(DVec3::X).length();
+        let sy = to_world.transform_vector3(DVec3::Y).length();
+        if !(sx.is_finite() && sx > 0.0 && sy.is_finite() && sy > 0.0) {
+            return Err(el.loc.error("orthographic sensor: to_world collapses the view (a zero or non-finite scale)"));
+        }
+        if (sx - sy).abs() > 1e-4 * sx {
+            self.warnings.push(format!(
+                "{}: the orthographic sensor's to_world scales x by {sx} and y by {sy}: glint keeps square pixels \
+                 (the view's width from x, its height from the image's aspect)",
+                el.loc.describe()
+            ));
+        }
+        Ok(Lens::Orthographic(ViewSize::HalfWidth(sx as f32)))
     }
 
     /// Mitsuba's `parse_fov`: the field of view along its axis (resolved against the image's
@@ -225,4 +241,21 @@ impl<'a> Builder<'a> {
 fn positive(p: &Props, name: &str, default: f64) -> Result<f32, FormatError> {
     let v = p.float(name, default)?;
     if v > 0.0 { Ok(v as f32) } else { Err(p.loc().error(format!("{name} = {v} must be > 0"))) }
+}
+
+/// A thinlens sensor's lens: `aperture_radius` (required, as in Mitsuba) and `focus_distance`
+/// (Mitsuba's default is its far clip, 10⁴).
+fn thin_lens(p: &Props<'_>) -> Result<Lens, FormatError> {
+    let Some(aperture_radius) = p.float_opt("aperture_radius")? else {
+        return Err(p.loc().error("thinlens sensor needs aperture_radius (Mitsuba requires it too)"));
+    };
+    let far = p.float_opt("far_clip")?.unwrap_or(1e4);
+    let focus_distance = p.float_opt("focus_distance")?.unwrap_or(far);
+    if !(aperture_radius.is_finite() && aperture_radius >= 0.0) {
+        return Err(p.loc().error(format!("aperture_radius = {aperture_radius} must be finite and >= 0")));
+    }
+    if !(focus_distance.is_finite() && focus_distance > 0.0) {
+        return Err(p.loc().error(format!("focus_distance = {focus_distance} must be finite and > 0")));
+    }
+    Ok(Lens::ThinLens { aperture_radius: aperture_radius as f32, focus_distance: focus_distance as f32 })
 }

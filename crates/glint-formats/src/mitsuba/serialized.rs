@@ -194,7 +194,7 @@ pub(super) fn parse(path: &Path, data: &[u8], shape_index: u32) -> Result<Serial
     let triangles = idx.chunks_exact(3).map(|t| [t[0] as u32, t[1] as u32, t[2] as u32]).collect();
     let name = if name.is_empty() { format!("shape {shape_index}") } else { name };
     Ok(SerializedMesh {
-        mesh: Mesh { name, positions, normals, uvs, triangles, triangle_materials: None },
+        mesh: Mesh { name, positions, normals, uvs, triangles, triangle_materials: None, attributes: Vec::new() },
         face_normals: flags & FACE_NORMALS != 0,
     })
 }

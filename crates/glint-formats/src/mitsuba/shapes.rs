@@ -106,7 +106,8 @@ impl<'a> Builder<'a> {
             "obj" | "ply" => {
                 let file = self
                     .resolve(p.string("filename")?.ok_or_else(|| el.loc.error("a mesh shape needs a filename"))?, el)?;
-                let mut model = if p.plugin == "obj" { crate::obj::load(&file)? } else { crate::ply::load(&file)? };
+                let mut model =
+                    if p.plugin == "obj" { crate::obj::load(&file)? } else { crate::ply::load_with_attributes(&file)? };
                 let flip_uv = if p.plugin == "obj" { !p.boolean("flip_tex_coords", true)? } else { true };
                 p.ignore(&["max_smooth_angle"]);
                 self.warnings.append(&mut model.warnings);
@@ -234,6 +235,7 @@ fn mesh(name: &str, vertices: &[(Vec3, Vec3, Vec2)], triangles: Vec<[u32; 3]>) -
         uvs: Some(vertices.iter().map(|v| Vec2::new(v.2.x, 1.0 - v.2.y)).collect()),
         triangles,
         triangle_materials: None,
+        attributes: Vec::new(),
     }
 }
 

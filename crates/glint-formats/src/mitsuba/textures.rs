@@ -64,6 +64,17 @@ impl<'a> Builder<'a> {
                 self.texture_cache.insert(k, i);
                 return Ok(i);
             }
+            "mesh_attribute" => {
+                let Some(name) = p.string("name")? else {
+                    return Err(el.loc.error("mesh_attribute needs a name (vertex_… or face_…)"));
+                };
+                if !(name.starts_with("vertex_") || name.starts_with("face_")) {
+                    return Err(el
+                        .loc
+                        .error(format!("mesh_attribute name '{name}' starts with neither vertex_ nor face_")));
+                }
+                Texture::MeshAttribute { name: name.to_string(), scale: p.float("scale", 1.0)? as f32 }
+            }
             "rawconstant" | "uniform" | "srgb" => {
                 let name = if p.plugin == "srgb" { "color" } else { "value" };
                 let c = self.constant_colour(&p, name, 1.0)?;
@@ -88,6 +99,17 @@ impl<'a> Builder<'a> {
         let i = self.scene.textures.len() - 1;
         self.texture_cache.insert(k, i);
         Ok(i)
+    }
+
+    /// A texture read by uv (a bump or normal map's): a mesh_attribute is refused.
+    pub(super) fn uv_texture(&mut self, el: &'a Element, user: &str) -> Result<usize, FormatError> {
+        let t = self.texture(el)?;
+        if self.scene.textures[t].reads_mesh() {
+            return Err(el
+                .loc
+                .error(format!("a {user} reads its texture by uv: mesh_attribute is not supported there")));
+        }
+        Ok(t)
     }
 
     fn constant_colour(&mut self, p: &Props<'a>, name: &str, default: f64) -> Result<Rgb, FormatError> {

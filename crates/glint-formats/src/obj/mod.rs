@@ -491,6 +491,7 @@ fn assemble(path: &Path, b: Builder) -> Mesh {
         uvs,
         triangles: b.triangles,
         triangle_materials,
+        attributes: Vec::new(),
     }
 }
 

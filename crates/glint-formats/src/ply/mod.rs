@@ -15,8 +15,8 @@ pub use header::{Element, Header, PlyFormat, Property, PropertyKind, ScalarType}
 
 use crate::error::FormatError;
 use crate::model::{self, Model};
-use glint_core::{Vec2, Vec3};
-use glint_scene::Mesh;
+use glint_core::{Rgb, Vec2, Vec3};
+use glint_scene::{Mesh, MeshAttribute};
 use std::path::Path;
 
 /// Reads a PLY file, keeping the properties `select` picks (by element and property).
@@ -59,9 +59,76 @@ fn mesh_selection(e: &Element, p: &Property) -> bool {
     }
 }
 
-/// Reads a PLY mesh file.
+/// [`mesh_selection`] and the properties that are mesh attributes ([`attribute_channel`]).
+fn mesh_and_attribute_selection(e: &Element, p: &Property) -> bool {
+    mesh_selection(e, p) || (matches!(e.name.as_str(), "vertex" | "face") && attribute_channel(&p.name).is_some())
+}
+
+/// Mitsuba's reading of a PLY property as a mesh attribute's channel: `<name>_<k>` is channel
+/// k (0..3) of attribute `<name>`, and `r g b` / `red green blue` are the channels of `color`
+/// (src/shapes/ply.cpp). The attribute is then `vertex_<name>` or `face_<name>`.
+fn attribute_channel(property: &str) -> Option<(&str, usize)> {
+    match property {
+        "r" | "red" => Some(("color", 0)),
+        "g" | "green" => Some(("color", 1)),
+        "b" | "blue" => Some(("color", 2)),
+        _ => {
+            let (name, k) = property.rsplit_once('_')?;
+            let k: usize = k.parse().ok()?;
+            (!name.is_empty() && k < 3 && VERTEX_PROPERTIES.iter().all(|v| *v != property)).then_some((name, k))
+        }
+    }
+}
+
+/// The attributes of `element`'s rows (`scope` is `vertex` or `face`): every name whose
+/// channels are 0 alone (kept grey) or 0, 1 and 2; other channel sets are skipped with a
+/// warning. Values are kept as stored, as Mitsuba keeps them (it expects colours in [0, 1]).
+fn attributes_of(element: &ElementData, scope: &str, file: &str, warnings: &mut Vec<String>) -> Vec<MeshAttribute> {
+    let mut channels: Vec<(&str, [Option<Vec<f32>>; 3])> = Vec::new();
+    for (property, column) in &element.columns {
+        let (Some((name, k)), Some(values)) = (attribute_channel(property), column.to_f32()) else { continue };
+        let at = match channels.iter().position(|(n, _)| *n == name) {
+            Some(i) => i,
+            None => {
+                channels.push((name, [None, None, None]));
+                channels.len() - 1
+            }
+        };
+        channels[at].1[k] = Some(values);
+    }
+    let mut out = Vec::new();
+    for (name, [c0, c1, c2]) in channels {
+        let full = format!("{scope}_{name}");
+        let values: Vec<Rgb> = match (c0, c1, c2) {
+            (Some(a), None, None) => a.iter().map(|&v| Rgb::splat(v)).collect(),
+            (Some(r), Some(g), Some(b)) => r.iter().zip(&g).zip(&b).map(|((&r, &g), &b)| Rgb::new(r, g, b)).collect(),
+            _ => {
+                warnings.push(format!("{file}: attribute '{full}' has neither 1 nor 3 channels: ignored"));
+                continue;
+            }
+        };
+        if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+            warnings.push(format!("{file}: attribute '{full}' is not a finite number at {scope} {i}: ignored"));
+            continue;
+        }
+        out.push(MeshAttribute { name: full, values });
+    }
+    out
+}
+
+/// Reads a PLY mesh file (geometry, normals, uvs).
 pub(crate) fn load(path: &Path) -> Result<Model, FormatError> {
-    let data = read_ply(path, &mesh_selection)?;
+    load_selected(path, &mesh_selection)
+}
+
+/// Reads a PLY mesh file with its mesh attributes (for Mitsuba's `mesh_attribute` textures;
+/// other loaders leave them unread: a scan's colours would cost 12 bytes a vertex).
+pub(crate) fn load_with_attributes(path: &Path) -> Result<Model, FormatError> {
+    load_selected(path, &mesh_and_attribute_selection)
+}
+
+fn load_selected(path: &Path, select: &dyn Fn(&Element, &Property) -> bool) -> Result<Model, FormatError> {
+    let data = read_ply(path, select)?;
     let mut warnings = Vec::new();
     let mesh = mesh_from_ply(path, &data, &mut warnings)?;
     let mut meshes = vec![mesh];
@@ -151,9 +218,11 @@ fn mesh_from_ply(path: &Path, data: &PlyData, warnings: &mut Vec<String>) -> Res
     }
     let triangle_count: usize = counts.iter().map(|&c| (c as usize).saturating_sub(2)).sum();
     let mut triangles = Vec::with_capacity(triangle_count);
+    // The face each triangle comes from (for per-face attributes).
+    let mut face_of_triangle = Vec::with_capacity(triangle_count);
     let mut start = 0;
     let mut short = 0;
-    for &c in counts {
+    for (f, &c) in counts.iter().enumerate() {
         let c = c as usize;
         let poly = &values[start..start + c];
         start += c;
@@ -162,12 +231,18 @@ fn mesh_from_ply(path: &Path, data: &PlyData, warnings: &mut Vec<String>) -> Res
             continue;
         }
         model::split_polygon(poly, &mut triangles);
+        face_of_triangle.resize(triangles.len(), f);
     }
     if short > 0 {
         warnings.push(format!("{name}: skipped {short} faces with fewer than 3 vertices"));
     }
+    let mut attributes = attributes_of(vertex, "vertex", &name, warnings);
+    for mut a in attributes_of(face, "face", &name, warnings) {
+        a.values = face_of_triangle.iter().map(|&f| a.values.get(f).copied().unwrap_or(Rgb::ZERO)).collect();
+        attributes.push(a);
+    }
     let stem = path.file_stem().map_or_else(String::new, |s| s.to_string_lossy().into_owned());
-    Ok(Mesh { name: stem, positions, normals, uvs, triangles, triangle_materials: None })
+    Ok(Mesh { name: stem, positions, normals, uvs, triangles, triangle_materials: None, attributes })
 }
 
 #[cfg(test)]

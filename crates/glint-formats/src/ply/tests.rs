@@ -81,7 +81,7 @@ fn write_ply(format: PlyFormat, positions: &[Vec3], faces: &[Vec<u32>]) -> Vec<u
 
 fn mesh_of(bytes: &[u8]) -> Result<(Mesh, Vec<String>), FormatError> {
     let path = Path::new("test.ply");
-    let data = parse_ply(path, bytes, &mesh_selection)?;
+    let data = parse_ply(path, bytes, &mesh_and_attribute_selection)?;
     let mut warnings = Vec::new();
     let mesh = mesh_from_ply(path, &data, &mut warnings)?;
     Ok((mesh, warnings))
@@ -239,4 +239,31 @@ fn zero_area_triangles_are_dropped_and_all_degenerate_is_rejected() {
     std::fs::write(&path, write_ply(PlyFormat::Ascii, &positions, &[vec![0, 1, 1], vec![2, 2, 2]])).expect("write");
     let err = load(&path).expect_err("degenerate");
     assert!(err.to_string().contains("zero area"), "{err}");
+}
+
+/// Mitsuba's mesh attributes: `r g b` / `red green blue` are `color`, `<name>_<k>` channel k
+/// of `<name>`; per-face values follow a polygon onto each of its triangles; a two-channel
+/// attribute is skipped with a warning.
+#[test]
+fn vertex_and_face_attributes_are_read_as_mitsuba_names_them() {
+    let text = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
+                property float red\nproperty float green\nproperty float blue\nproperty float weight_0\n\
+                property float uv_0\nproperty float uv_1\n\
+                element face 2\nproperty list uchar int vertex_indices\nproperty float r\nproperty float g\nproperty float b\n\
+                end_header\n\
+                0 0 0 1 0 0 0.5 0 0\n1 0 0 0 1 0 1 0 0\n1 1 0 0 0 1 2 0 0\n0 1 0 0.2 0.2 0.2 4 0 0\n\
+                4 0 1 2 3 0.1 0.2 0.3\n3 0 1 3 0.9 0.8 0.7\n";
+    let (mesh, warnings) = mesh_of(text.as_bytes()).expect("valid");
+    let names: Vec<&str> = mesh.attributes.iter().map(|a| a.name.as_str()).collect();
+    assert_eq!(names, ["vertex_color", "vertex_weight", "face_color"]);
+    assert_eq!(mesh.attributes[0].values[1], Rgb::new(0.0, 1.0, 0.0));
+    assert_eq!(mesh.attributes[1].values[3], Rgb::splat(4.0));
+    // The quad's two triangles, then the triangle.
+    let face = &mesh.attributes[2].values;
+    assert_eq!(face, &[Rgb::new(0.1, 0.2, 0.3), Rgb::new(0.1, 0.2, 0.3), Rgb::new(0.9, 0.8, 0.7)]);
+    assert_eq!(mesh.triangles.len(), 3);
+    assert!(warnings.iter().any(|w| w.contains("vertex_uv") && w.contains("neither 1 nor 3")), "{warnings:?}");
+    // Mid-edge of the first triangle's first two corners.
+    assert_eq!(mesh.attribute_at("vertex_color", 0, 0.5, 0.0), Some(Rgb::new(0.5, 0.5, 0.0)));
+    assert_eq!(mesh.attribute_at("face_color", 2, 0.3, 0.3), Some(Rgb::new(0.9, 0.8, 0.7)));
 }

@@ -56,6 +56,9 @@ pub(crate) struct CameraDef {
     pub up: Option<Spanned<V3>>,
     pub fov: Option<Spanned<Num>>,
     pub hfov: Option<Spanned<Num>>,
+    pub aperture_radius: Option<Spanned<Num>>,
+    pub focus_distance: Option<Spanned<Num>>,
+    pub view_height: Option<Spanned<Num>>,
 }
 
 #[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq)]

@@ -84,6 +84,7 @@ impl Builder<'_> {
                     intensity,
                     attenuation,
                     falloff: SpotFalloff::Smoothstep,
+                    projection: None,
                 })
             }
         }

@@ -68,8 +68,15 @@ impl Builder<'_> {
             }
             None => None,
         };
-        let mut mesh =
-            Mesh { name: name.to_string(), positions, normals, uvs, triangles: tris, triangle_materials: None };
+        let mut mesh = Mesh {
+            name: name.to_string(),
+            positions,
+            normals,
+            uvs,
+            triangles: tris,
+            triangle_materials: None,
+            attributes: Vec::new(),
+        };
         if let Some(message) = mesh.out_of_range_message() {
             return Err(self.err(&triangles.span(), format!("mesh '{name}': {message}")));
         }

@@ -218,7 +218,7 @@ pub(super) fn light_samples(
     mut visit: impl FnMut(&Ray, Rgb, Rgb),
 ) {
     for light in lights.each_delta() {
-        let Some(ls) = LightSet::delta_sample(light, hit) else { continue };
+        let Some(ls) = lights.delta_sample(light, hit) else { continue };
         let f = bsdf.eval_cos(ls.wi);
         if f.max_element() > 0.0 {
             counts.shadow += 1;

@@ -58,6 +58,8 @@ pub struct LightSet {
     sky: Option<SkySampler>,
     sky_entry: Option<u32>,
     delta_lights: Vec<Light>,
+    /// The scene's textures when a delta light projects one (else empty).
+    projected: Vec<glint_scene::Texture>,
     /// Every delta light is sampled at every shading point (not in `entries`).
     each_delta: bool,
 }
@@ -120,7 +122,9 @@ impl LightSet {
         if let Some(last) = cdf.last_mut() {
             *last = 1.0;
         }
-        LightSet { entries, cdf, triangles, areas, triangle_entry, sky, sky_entry, delta_lights, each_delta }
+        let projected =
+            if delta_lights.iter().any(Light::is_textured) { world.scene().textures.clone() } else { Vec::new() };
+        LightSet { entries, cdf, triangles, areas, triangle_entry, sky, sky_entry, delta_lights, projected, each_delta }
     }
 
     /// The delta lights sampled at every shading point (empty when they are in the choice).
@@ -129,8 +133,8 @@ impl LightSet {
     }
 
     /// The sample of a delta light seen from `hit` (weight = incident radiance, pdf 0).
-    pub fn delta_sample(light: &Light, hit: &SurfaceHit) -> Option<LightSample> {
-        let ls = light.sample_at(hit.position)?;
+    pub fn delta_sample(&self, light: &Light, hit: &SurfaceHit) -> Option<LightSample> {
+        let ls = light.sample_in(hit.position, &self.projected)?;
         let shadow = if ls.distance.is_finite() {
             hit.spawn_ray_to(hit.position + ls.wi * ls.distance)
         } else {
@@ -157,7 +161,7 @@ impl LightSet {
         }
         match self.entries[entry] {
             Entry::Delta(i) => {
-                let mut s = Self::delta_sample(&self.delta_lights[i], hit)?;
+                let mut s = self.delta_sample(&self.delta_lights[i], hit)?;
                 s.weight /= p_choice;
                 Some(s)
             }
@@ -268,6 +272,7 @@ mod tests {
             uvs: None,
             triangles: vec![[0, 1, 2], [0, 2, 3]],
             triangle_materials: None,
+            attributes: Vec::new(),
         };
         let scene = Scene {
             sky,

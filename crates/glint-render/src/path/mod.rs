@@ -271,9 +271,14 @@ impl Frame {
         let mut stream = SampleStream::new(self.image.pixel_id(x, y), sample, self.seed);
         let offset = if centre && self.centre_first { Vec2::splat(0.5) } else { self.pixel.position(stream.next_2d()) };
         let pos = Vec2::new(x as f32, y as f32) + offset;
-        let ray = match self.image.film_origin() {
-            (0, 0) => self.camera.ray(pos),
-            (fx, fy) => self.camera.ray(Vec2::new((fx + x) as f32, (fy + y) as f32) + offset),
+        let on_film = match self.image.film_origin() {
+            (0, 0) => pos,
+            (fx, fy) => Vec2::new((fx + x) as f32, (fy + y) as f32) + offset,
+        };
+        let ray = if self.camera.samples_lens() {
+            self.camera.ray_through_lens(on_film, stream.next_2d())
+        } else {
+            self.camera.ray(on_film)
         };
         (pos, ray, stream)
     }

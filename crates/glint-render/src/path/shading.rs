@@ -46,6 +46,8 @@ impl Physical {
         let base = gram_schmidt(n, dp_du);
         let mut reader = Reader {
             scene,
+            world,
+            hit,
             uv: hit.uv,
             frame: base,
             perturbed: false,
@@ -231,6 +233,8 @@ fn shadow_terminator(n: Vec3, w: Vec3) -> f32 {
 /// Walks a material's BSDF tree at one hit.
 struct Reader<'a> {
     scene: &'a Scene,
+    world: &'a World,
+    hit: &'a SurfaceHit,
     uv: Vec2,
     frame: Frame,
     perturbed: bool,
@@ -246,7 +250,7 @@ impl Reader<'_> {
     fn rgb(&self, t: &Tex<Rgb>) -> Rgb {
         match *t {
             Tex::Value(v) => v,
-            Tex::Texture(i) => self.scene.textures[i].evaluate(self.uv),
+            Tex::Texture(i) => self.world.texture_at(i, self.hit),
         }
     }
 
@@ -254,7 +258,7 @@ impl Reader<'_> {
     fn float(&self, t: &Tex<f32>) -> f32 {
         match *t {
             Tex::Value(v) => v,
-            Tex::Texture(i) => luminance(self.scene.textures[i].evaluate(self.uv)),
+            Tex::Texture(i) => luminance(self.world.texture_at(i, self.hit)),
         }
     }
 

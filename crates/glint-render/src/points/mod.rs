@@ -236,8 +236,8 @@ impl PointRenderer {
     /// Draw the clouds of `scene` (the one this renderer was made from) seen by `camera`.
     ///
     /// # Errors
-    /// [`RenderError::InvalidSetting`] for settings outside their limits or an image too
-    /// large for the points mode's buffers.
+    /// [`RenderError::InvalidSetting`] for settings outside their limits, an image too
+    /// large for the points mode's buffers, or a camera that is not a pinhole.
     pub fn render(
         &mut self,
         scene: &Scene,
@@ -247,6 +247,12 @@ impl PointRenderer {
         frame: &mut PointFrame,
     ) -> Result<PointStats, RenderError> {
         settings.validate(image)?;
+        if camera.lens != glint_scene::Lens::Pinhole {
+            return Err(RenderError::InvalidSetting(format!(
+                "points mode projects every point through a pinhole camera; this scene's camera is {:?}",
+                camera.lens
+            )));
+        }
         let start = Instant::now();
         let (w, h) = (image.width, image.height);
         let view = View::new(camera, w, h);

@@ -80,7 +80,7 @@ fn phong(
     };
     let mut c = m.emission + ambient * albedo * m.ambient;
     for light in &scene.lights {
-        let Some(ls) = light.sample_at(position) else { continue };
+        let Some(ls) = light.sample_in(position, &scene.textures) else { continue };
         let cos_l = n.dot(ls.wi);
         if cos_l <= 0.0 {
             continue;

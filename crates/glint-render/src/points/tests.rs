@@ -10,7 +10,13 @@ use std::sync::Arc;
 /// A camera at the origin looking along −Z with a 90° vertical field of view: at depth z, one
 /// pixel of an N-pixel-high image spans 2z / N world units.
 fn camera() -> Camera {
-    Camera { position: Vec3::ZERO, forward: Vec3::NEG_Z, up: Vec3::Y, fov: Fov::Vertical(90.0) }
+    Camera {
+        position: Vec3::ZERO,
+        forward: Vec3::NEG_Z,
+        up: Vec3::Y,
+        fov: Fov::Vertical(90.0),
+        lens: glint_scene::Lens::Pinhole,
+    }
 }
 
 /// One frame of `scene`'s clouds seen by its camera.

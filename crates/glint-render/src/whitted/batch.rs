@@ -186,6 +186,8 @@ pub(super) struct Scratch {
 pub(super) struct Frame<'a> {
     pub shading: Shading<'a>,
     pub rays: CameraRays,
+    /// The pinhole image plane the packets are made from ([`CameraRays::image_plane`]).
+    pub plane: (Vec3, Vec3, Vec3),
     pub samples: Samples,
     pub samples_per_side: u32,
     pub centre_cone: f32,
@@ -207,7 +209,14 @@ impl<'a> Frame<'a> {
     ) -> Self {
         let rays = image.camera_rays(camera);
         let scene = world.scene();
+        // `whitted::render` runs the scalar kernel for the other lenses; were one to come
+        // here, the packets would be its pinhole's (the lens's centre).
+        let pinhole = Camera { lens: glint_scene::Lens::Pinhole, ..*camera };
+        let plane = rays.image_plane().unwrap_or_else(|| {
+            image.camera_rays(&pinhole).image_plane().unwrap_or((Vec3::ZERO, Vec3::ZERO, Vec3::ZERO))
+        });
         Frame {
+            plane,
             shading: Shading {
                 world,
                 materials: MaterialTable::new(&scene.materials),
@@ -317,7 +326,7 @@ fn primary_stream<I: Isa>(frame: &Frame, x0: usize, y0: usize, tile_w: usize, ti
     let origin = V8::<I>::splat(frame.rays.origin);
     let forward = V8::splat(frame.forward);
     // CameraRays::ray across lanes: the same operations, so the same directions.
-    let (top_left, right, down) = frame.rays.image_plane();
+    let (top_left, right, down) = frame.plane;
     // Film position of the image's pixel (0, 0) (whole numbers: sums stay exact).
     let (film_x, film_y) = (frame.image.film_origin().0 as f32, frame.image.film_origin().1 as f32);
     let (top_left, right, down) = (V8::splat(top_left), V8::splat(right), V8::splat(down));

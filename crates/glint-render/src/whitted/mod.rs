@@ -57,10 +57,15 @@ pub fn render(
     film: &mut Film,
 ) -> Result<FrameStats, RenderError> {
     image.validate()?;
-    let settings = match samples {
+    let mut settings = match samples {
         Samples::Stratified => *settings,
         Samples::Pass(_) => WhittedSettings { samples_per_side: 1, ..*settings },
     };
+    if camera.lens != glint_scene::Lens::Pinhole || world.scene().lights.iter().any(glint_scene::Light::is_textured) {
+        // The batched kernel makes its packets from one eye point and an image plane, and
+        // shades lights without projected textures.
+        settings.kernel = WhittedKernel::Scalar;
+    }
     settings.validate()?;
     if settings.kernel != WhittedKernel::Scalar
         && let Some(aligned) = aligned_window(image)
@@ -94,16 +99,24 @@ pub fn render(
                     let pixel_index = image.pixel_id(x, y);
                     let mut acc = PixelAccumulator::default();
                     for s in 0..n * n {
-                        let offset = match samples {
-                            Samples::Stratified if n == 1 => Vec2::splat(0.5),
-                            Samples::Pass(0) => Vec2::splat(0.5),
-                            Samples::Stratified => {
-                                let mut stream = SampleStream::new(pixel_index, s as u64, image.seed);
-                                stratified_2d(s, n, stream.next_2d())
-                            }
-                            Samples::Pass(k) => SampleStream::new(pixel_index, k as u64, image.seed).next_2d(),
+                        let (index, centre) = match samples {
+                            Samples::Stratified => (u64::from(s), n == 1),
+                            Samples::Pass(k) => (u64::from(k), k == 0),
                         };
-                        let ray = rays.ray(Vec2::new((film_x + x) as f32, (film_y + y) as f32) + offset);
+                        let (offset, lens) = if centre && !rays.samples_lens() {
+                            (Vec2::splat(0.5), None)
+                        } else {
+                            let mut stream = SampleStream::new(pixel_index, index, image.seed);
+                            let jitter = stream.next_2d();
+                            let offset = match samples {
+                                _ if centre => Vec2::splat(0.5),
+                                Samples::Stratified => stratified_2d(s, n, jitter),
+                                Samples::Pass(_) => jitter,
+                            };
+                            (offset, rays.samples_lens().then(|| stream.next_2d()))
+                        };
+                        let p = Vec2::new((film_x + x) as f32, (film_y + y) as f32) + offset;
+                        let ray = lens.map_or_else(|| rays.ray(p), |u| rays.ray_through_lens(p, u));
                         let cos = ray.dir.dot(forward);
                         let (c, first) = tracer.trace(world, ray, centre_cone * cos * cos.sqrt(), &settings);
                         if !c.is_finite() {

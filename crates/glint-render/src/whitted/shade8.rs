@@ -273,6 +273,13 @@ fn albedo<I: Isa>(s: &Shading, m: &Materials8<I>, surf: &Surfaces8<I>) -> V8<I> 
                     }
                 }
             }
+            Texture::MeshAttribute { .. } => {
+                for i in 0..LANES {
+                    if let Some(hit) = same.lane(i).then(|| surf.lane(i)).flatten() {
+                        tex.set(i, s.world.texture_at(ti, &hit));
+                    }
+                }
+            }
         }
         todo = todo.and_not(same);
     }

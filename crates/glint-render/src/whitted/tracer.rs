@@ -149,7 +149,7 @@ impl Tracer {
         for lights in world.scene().lights.chunks(GROUP) {
             let mut rays = [None; GROUP];
             for (slot, light) in rays.iter_mut().zip(lights) {
-                let Some(ls) = light.sample_at(hit.position) else { continue };
+                let Some(ls) = light.sample_in(hit.position, &world.scene().textures) else { continue };
                 let cos_l = ns.dot(ls.wi);
                 // Lights below the geometric surface are not seen, whatever the shading normal says.
                 if cos_l <= 0.0 || ng.dot(ls.wi) <= 0.0 {

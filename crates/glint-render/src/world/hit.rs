@@ -7,6 +7,7 @@ use super::World;
 use super::instances::{Found, Instance, InstanceShape, Plane, transform_ray};
 use glint_core::float::{gamma, offset_ray_origin};
 use glint_core::{Mat3, Ray, Rgb, Vec2, Vec3};
+use glint_scene::Texture;
 
 /// Everything shading needs about a ray's closest hit.
 #[derive(Clone, Copy, Debug)]
@@ -81,9 +82,41 @@ impl World {
         let m = self.material(hit.material);
         let e = m.emitted(hit.geometric_normal, wo);
         match m.emission_texture {
-            Some(t) if e != Rgb::ZERO => e * self.scene.textures[t].evaluate(hit.uv),
+            Some(t) if e != Rgb::ZERO => e * self.texture_at(t, hit),
             _ => e,
         }
+    }
+
+    /// Texture `t` of the scene at a hit: at its uv, or, for a mesh attribute, the hit
+    /// mesh's value there (the texture's scale alone where the surface has no such attribute).
+    #[inline]
+    #[must_use]
+    pub fn texture_at(&self, t: usize, hit: &SurfaceHit) -> Rgb {
+        match &self.scene.textures[t] {
+            Texture::MeshAttribute { name, scale } => {
+                self.mesh_attribute(hit, name).map_or(Rgb::splat(*scale), |v| v * *scale)
+            }
+            texture => texture.evaluate(hit.uv),
+        }
+    }
+
+    /// The hit mesh's attribute `name` at the hit ([`glint_scene::Mesh::attribute_at`]), the
+    /// barycentrics recovered from the hit's position in the triangle (in object space).
+    /// `None` for spheres and planes and for meshes without it.
+    #[must_use]
+    pub fn mesh_attribute(&self, hit: &SurfaceHit, name: &str) -> Option<Rgb> {
+        let Some(Some(index)) = self.instance_of_object.get(hit.object as usize) else { return None };
+        let inst = &self.instances[*index];
+        let InstanceShape::Mesh(m) = inst.shape else { return None };
+        let mesh = &self.meshes[m];
+        let prim = hit.prim as usize;
+        if hit.prim == NO_PRIM || prim >= mesh.triangles.len() {
+            return None;
+        }
+        let p = if inst.identity { hit.position } else { inst.object_from_world.transform_point3(hit.position) };
+        let [a, b, c] = mesh.triangle(prim);
+        let (b1, b2) = barycentrics(p - a, b - a, c - a);
+        mesh.attribute_at(name, prim, b1, b2)
     }
 
     /// The surface colour at a hit: material colour × texture.
@@ -92,7 +125,7 @@ impl World {
     pub fn albedo(&self, hit: &SurfaceHit) -> Rgb {
         let m = self.material(hit.material);
         match m.texture {
-            Some(t) => m.colour * self.scene.textures[t].evaluate(hit.uv),
+            Some(t) => m.colour * self.texture_at(t, hit),
             None => m.colour,
         }
     }
@@ -260,4 +293,19 @@ impl World {
             prim,
         }
     }
+}
+
+/// The barycentric weights (of the second and third corners) of the point `d` (relative to the
+/// first corner) in the triangle spanned by the edges `e1`, `e2`: the least-squares solution
+/// of `d = b1·e1 + b2·e2`, clamped into the triangle (a hit lies on it up to rounding).
+fn barycentrics(d: Vec3, e1: Vec3, e2: Vec3) -> (f32, f32) {
+    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (d1, d2) = (d.dot(e1), d.dot(e2));
+    let den = d11 * d22 - d12 * d12;
+    if !(den > 0.0 && den.is_finite()) {
+        return (1.0 / 3.0, 1.0 / 3.0);
+    }
+    let b1 = ((d22 * d1 - d12 * d2) / den).clamp(0.0, 1.0);
+    let b2 = ((d11 * d2 - d12 * d1) / den).clamp(0.0, 1.0 - b1);
+    (b1, b2)
 }

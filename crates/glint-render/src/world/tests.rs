@@ -13,7 +13,13 @@ fn scene(extra: Option<Shape>, world_from_object: Affine3A) -> Scene {
         objects.push(Object { name: "extra".into(), shape, material: 0, world_from_object: Affine3A::IDENTITY });
     }
     Scene {
-        camera: Camera { position: Vec3::new(0.0, 0.3, 3.0), forward: -Vec3::Z, up: Vec3::Y, fov: Fov::Vertical(50.0) },
+        camera: Camera {
+            position: Vec3::new(0.0, 0.3, 3.0),
+            forward: -Vec3::Z,
+            up: Vec3::Y,
+            fov: Fov::Vertical(50.0),
+            lens: glint_scene::Lens::Pinhole,
+        },
         materials: vec![Material::default()],
         meshes: vec![Arc::new(mesh)],
         objects,
@@ -184,6 +190,7 @@ fn a_moving_light_moves_the_shadow() {
             forward: Vec3::new(0.0, -3.0, -6.0),
             up: Vec3::Y,
             fov: Fov::Vertical(40.0),
+            lens: glint_scene::Lens::Pinhole,
         },
         sky: Sky::Colour(Rgb::ZERO),
         materials: vec![matte],
@@ -358,7 +365,13 @@ fn the_merged_tree_finds_what_the_instances_find() {
     let placed =
         |mesh, material, w| Object { name: "o".into(), shape: Shape::Mesh(mesh), material, world_from_object: w };
     let scene = Scene {
-        camera: Camera { position: Vec3::new(0.0, 0.3, 6.0), forward: -Vec3::Z, up: Vec3::Y, fov: Fov::Vertical(50.0) },
+        camera: Camera {
+            position: Vec3::new(0.0, 0.3, 6.0),
+            forward: -Vec3::Z,
+            up: Vec3::Y,
+            fov: Fov::Vertical(50.0),
+            lens: glint_scene::Lens::Pinhole,
+        },
         materials: vec![Material::default(), Material { transparency: 0.5, ..Material::default() }],
         meshes: vec![ball(2_000), ball(3_000), ball(1_000), ball(500)],
         objects: vec![
@@ -455,4 +468,64 @@ fn shadow_rays_leave_an_axis_aligned_wall_at_zero() {
         blocked += usize::from(world.occluded(&hit.spawn_ray_to(light)));
     }
     assert_eq!(blocked, 0);
+}
+
+/// A mesh attribute at a hit: a face's value, or its vertices' values weighted by where the
+/// hit lies in the triangle, whether the mesh is merged into the static tree or placed by a
+/// transform; the texture that reads it scales it, and a surface without it shows the scale.
+#[test]
+fn mesh_attributes_are_read_at_the_hit() {
+    use glint_scene::{MeshAttribute, Texture};
+    let corners = [Rgb::new(1.0, 0.0, 0.0), Rgb::new(0.0, 1.0, 0.0), Rgb::new(0.0, 0.0, 1.0), Rgb::ONE];
+    let quad = Mesh {
+        name: "quad".into(),
+        positions: vec![
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(1.0, -1.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(-1.0, 1.0, 0.0),
+        ],
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+        attributes: vec![
+            MeshAttribute { name: "vertex_color".into(), values: corners.to_vec() },
+            MeshAttribute { name: "face_color".into(), values: vec![Rgb::splat(0.25), Rgb::splat(0.75)] },
+        ],
+        ..Mesh::default()
+    };
+    for placed in
+        [Affine3A::IDENTITY, Affine3A::from_rotation_translation(Quat::from_rotation_y(0.4), Vec3::new(0.3, 0.1, -0.5))]
+    {
+        let scene = Scene {
+            materials: vec![Material::default()],
+            meshes: vec![Arc::new(quad.clone())],
+            objects: vec![Object {
+                name: "quad".into(),
+                shape: Shape::Mesh(0),
+                material: 0,
+                world_from_object: placed,
+            }],
+            textures: vec![Texture::MeshAttribute { name: "vertex_color".into(), scale: 2.0 }],
+            ..Scene::default()
+        };
+        let world = World::new(scene);
+        // Local (0.5, −0.2): in triangle 0 (below the diagonal y = x).
+        let local = Vec3::new(0.5, -0.2, 0.0);
+        let target = placed.transform_point3(local);
+        let normal = placed.transform_vector3(Vec3::Z);
+        let ray = Ray::new(target + normal * 2.0, -normal);
+        let hit = world.intersect(&ray).expect("the quad");
+        // p = a + b1 (b − a) + b2 (c − a) with a, b, c = (−1, −1), (1, −1), (1, 1):
+        // y = −1 + 2 b2, x = −1 + 2 b1 + 2 b2.
+        let (b2, b1) = ((local.y + 1.0) / 2.0, (local.x - local.y) / 2.0);
+        let want = corners[0] * (1.0 - b1 - b2) + corners[1] * b1 + corners[2] * b2;
+        let got = world.mesh_attribute(&hit, "vertex_color").expect("vertex_color");
+        assert!((got - want).abs().max_element() < 1e-5, "{got} vs {want}");
+        assert_eq!(world.mesh_attribute(&hit, "face_color"), Some(Rgb::splat(0.25)));
+        assert!((world.texture_at(0, &hit) - want * 2.0).abs().max_element() < 1e-5);
+        assert_eq!(world.mesh_attribute(&hit, "vertex_nothing"), None);
+        // Above the diagonal: the second face.
+        let other = placed.transform_point3(Vec3::new(-0.5, 0.5, 0.0));
+        let hit = world.intersect(&Ray::new(other + normal * 2.0, -normal)).expect("the quad");
+        assert_eq!(world.mesh_attribute(&hit, "face_color"), Some(Rgb::splat(0.75)));
+    }
 }
