@@ -123,7 +123,7 @@ pub(crate) fn load(path: &Path) -> Result<Model, FormatError> {
 
 /// Reads a PLY mesh file with its mesh attributes (for Mitsuba's `mesh_attribute` textures;
 /// other loaders leave them unread: a scan's colours would cost 12 bytes a vertex).
-pub(crate) fn load_with_attributes(path: &Path) -> Result<Model, FormatError> {
+pub fn load_with_attributes(path: &Path) -> Result<Model, FormatError> {
     load_selected(path, &mesh_and_attribute_selection)
 }
 
