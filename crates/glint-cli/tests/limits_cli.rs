@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{assert_fails_cleanly, glint, scratch, stderr};
+use common::{assert_fails_cleanly, glint, repo, scratch, stderr};
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -47,6 +47,25 @@ fn a_film_larger_than_max_memory_is_refused_with_what_it_needs() {
     }
     // The option itself is checked.
     assert_fails_cleanly(&["--max-memory", "lots", "render", "-o", "out.png"], "--max-memory", &d);
+}
+
+#[test]
+fn a_mesh_whose_trees_exceed_max_memory_is_refused() {
+    let d = scratch("limits-mesh-memory");
+    std::fs::write(d.join("out.png"), b"precious").unwrap();
+    let dragon = repo().join("../shared/data/meshes/stanford_dragon_100k.ply");
+    if !dragon.exists() {
+        eprintln!("skipped: {} is not here", dragon.display());
+        return;
+    }
+    let dragon = dragon.display().to_string();
+    // The file (3 MB) loads within 20 MB; its trees (about 26 MB) do not.
+    let args = ["--max-memory", "20M", "render", &dragon, "--width", "32", "--height", "32", "-o", "out.png"];
+    assert_refused(&glint(&args, &d), &["100000 triangles", "memory budget of 20.00 MiB", "--max-memory"]);
+    assert_eq!(std::fs::read(d.join("out.png")).unwrap(), b"precious");
+    let args = ["--max-memory", "200M", "render", &dragon, "--width", "32", "--height", "32", "-o", "ok.png"];
+    let o = glint(&args, &d);
+    assert!(o.status.success(), "{}", stderr(&o));
 }
 
 #[test]
