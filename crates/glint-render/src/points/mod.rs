@@ -204,9 +204,6 @@ impl PointFrame {
 pub struct PointRenderer {
     points: PreparedPoints,
     depth: Vec<AtomicU64>,
-    /// Level 0 as the pull read it, for the pixels a point won: the final push reads it in
-    /// image order instead of gathering from the points again.
-    resolved: Vec<Texel>,
     /// The winning point's normal code and attributes per pixel, gathered in one tight pass
     /// (many cache misses in flight at once) before anything computes with them.
     gathered: Vec<(u32, prepared::PointAttributes)>,
@@ -226,7 +223,6 @@ impl PointRenderer {
             every_cloud_has_normals: points.clouds.iter().all(|c| c.has_normals),
             points,
             depth: Vec::new(),
-            resolved: Vec::new(),
             gathered: Vec::new(),
             levels: Vec::new(),
             sky_irradiance: scene.sky_ambient.then(|| scene.sky.irradiance_sh()),
@@ -375,10 +371,7 @@ impl PointRenderer {
             level.resize(w, h);
         }
         if count > 0 {
-            let mut resolved = std::mem::take(&mut self.resolved);
-            resolved.resize(view.width as usize * view.height as usize, Texel::INVALID);
-            self.pull_from_depth(view, clouds, &mut levels[0], &mut resolved);
-            self.resolved = resolved;
+            self.pull_from_depth(view, clouds, &mut levels[0]);
             for k in 1..count {
                 let (fine, coarse) = levels.split_at_mut(k);
                 let fine = &fine[k - 1];
@@ -410,7 +403,10 @@ impl PointRenderer {
                         (Some(rows), EMPTY) => rows.interpolate(x as i64, y as i64, ellipses).unwrap_or(Texel::INVALID),
                         (None, EMPTY) => Texel::INVALID,
                         (Some(rows), _) => {
-                            let own = this.resolved[y * width + x];
+                            // Level 0 again, from the gathered attributes in image order: cheaper
+                            // than keeping a frame of texels from the pull (60 bytes a pixel,
+                            // whose first touch cost a single frame ~40 ms at 1024²).
+                            let own = this.level0(view, clouds, x as i64, y as i64, word);
                             rows.push(x as i64, y as i64, &own, ellipses).unwrap_or(own)
                         }
                         (None, word) => this.level0(view, clouds, x as i64, y as i64, word),
@@ -432,41 +428,34 @@ impl PointRenderer {
     }
 
     /// Pull level 1 straight from the depth buffer: 2×2 blocks without a point (most of them,
-    /// in most images) cost four loads. The level-0 texels made on the way are kept in
-    /// `resolved` (only where a point won; the rest is stale and never read).
-    fn pull_from_depth(&self, view: &View, clouds: &[CloudView], coarse: &mut pyramid::Level, resolved: &mut [Texel]) {
+    /// in most images) cost four loads. The level-0 texels made on the way are not kept: the
+    /// final push makes them again where it needs them.
+    fn pull_from_depth(&self, view: &View, clouds: &[CloudView], coarse: &mut pyramid::Level) {
         let cw = coarse.width as usize;
-        let w = view.width as usize;
         const OFFSETS: [Vec2; 4] =
             [Vec2::new(-0.5, -0.5), Vec2::new(0.5, -0.5), Vec2::new(-0.5, 0.5), Vec2::new(0.5, 0.5)];
-        coarse.texels.par_chunks_mut(cw).zip(resolved.par_chunks_mut(2 * w)).enumerate().with_min_len(4).for_each(
-            |(cy, (row, fine))| {
-                let fy = 2 * cy as i64;
-                for (cx, out) in row.iter_mut().enumerate() {
-                    let fx = 2 * cx as i64;
-                    let words = [
-                        self.word(view, fx, fy),
-                        self.word(view, fx + 1, fy),
-                        self.word(view, fx, fy + 1),
-                        self.word(view, fx + 1, fy + 1),
-                    ];
-                    if words == [EMPTY; 4] {
-                        *out = Texel::INVALID;
-                        continue;
-                    }
-                    let mut children = [(Texel::INVALID, Vec2::ZERO); 4];
-                    for (k, child) in children.iter_mut().enumerate() {
-                        let (x, y) = (fx + (k & 1) as i64, fy + (k >> 1) as i64);
-                        let t = self.level0(view, clouds, x, y, words[k]);
-                        if words[k] != EMPTY {
-                            fine[(y - fy) as usize * w + x as usize] = t;
-                        }
-                        *child = (t, OFFSETS[k]);
-                    }
-                    *out = pyramid::pull_texel(children);
+        coarse.texels.par_chunks_mut(cw).enumerate().with_min_len(4).for_each(|(cy, row)| {
+            let fy = 2 * cy as i64;
+            for (cx, out) in row.iter_mut().enumerate() {
+                let fx = 2 * cx as i64;
+                let words = [
+                    self.word(view, fx, fy),
+                    self.word(view, fx + 1, fy),
+                    self.word(view, fx, fy + 1),
+                    self.word(view, fx + 1, fy + 1),
+                ];
+                if words == [EMPTY; 4] {
+                    *out = Texel::INVALID;
+                    continue;
                 }
-            },
-        );
+                let mut children = [(Texel::INVALID, Vec2::ZERO); 4];
+                for (k, child) in children.iter_mut().enumerate() {
+                    let (x, y) = (fx + (k & 1) as i64, fy + (k >> 1) as i64);
+                    *child = (self.level0(view, clouds, x, y, words[k]), OFFSETS[k]);
+                }
+                *out = pyramid::pull_texel(children);
+            }
+        });
     }
 
     /// The pyramid levels above level 0 after the last frame.
