@@ -70,6 +70,9 @@ pub struct Square {
     pub hi: u64,
 }
 
+/// Below this square (2^63) the integer part fits a u64: the fast conversion.
+const FAST_SQUARE: f64 = 9_223_372_036_854_775_808.0;
+
 /// The largest square term, 2^164 (the radiance bound's square on the grid), as an integer
 /// part (of v²) below 2^100.
 const SQUARE_INT_LIMIT: f64 = 1_267_650_600_228_229_401_496_703_205_376.0; // 2^100
@@ -79,6 +82,13 @@ impl Square {
     #[inline]
     pub fn add_square(&mut self, v: f32) {
         let s = f64::from(v) * f64::from(v);
+        if s < FAST_SQUARE {
+            // The common case in machine words: integer and fraction parts below 2^64.
+            let int = s as u64;
+            let frac = ((s - int as f64) * 18_446_744_073_709_551_616.0) as u64;
+            self.add(Square { lo: u128::from(int) << 64 | u128::from(frac), hi: 0 });
+            return;
+        }
         let (int, frac) = if s < SQUARE_INT_LIMIT {
             let int = s.trunc();
             (int as u128, ((s - int) * 18_446_744_073_709_551_616.0) as u64)
@@ -192,6 +202,15 @@ mod tests {
         let expect = 0.25 + 9.0 + 1e20 + (1e-3f32 as f64).powi(2);
         assert!((s.value() - expect).abs() <= expect * 1e-15, "{} vs {expect}", s.value());
         assert_eq!(Square::from_words(s.words()), s);
+        // The fast (below 2^63) and the wide conversion agree where both apply.
+        for v in [1.5f32, 0.1, 7.3e4, 2.9e9, 3.0e9] {
+            let mut fast = Square::default();
+            fast.add_square(v);
+            let sq = f64::from(v) * f64::from(v);
+            let int = sq.trunc();
+            let wide = Square { lo: (int as u128) << 64 | u128::from(((sq - int) * 2f64.powi(64)) as u64), hi: 0 };
+            assert_eq!(fast, wide, "{v}");
+        }
         for v in [0i128, -1, 1 << 100, -(1 << 126), i128::MAX] {
             assert_eq!(from_words_i128(words_i128(v)), v);
         }

@@ -101,7 +101,9 @@ enum Step {
 }
 
 /// Bytes a frame of each mode holds per pixel at its peak, measured (peak RSS at 1024² less
-/// the 8 × 8 frame's, over the pixels: Whitted 100, path 278, points about 250; rounded up):
+/// the 8 × 8 frame's, over the pixels: Whitted 100, path 278 before its sums went to fixed
+/// point, which added 160 (256-byte `PixelSums` for a 96-byte record), points about 250;
+/// rounded up):
 /// the film, the mode's accumulators and guides, the filter's planes, the points mode's
 /// buffers and pyramid. A frame is refused before any of it is
 /// allocated when `pixels ×` this exceeds the memory budget; the buffers themselves are then
@@ -115,7 +117,7 @@ fn frame_bytes_per_pixel(kind: RenderMode) -> u64 {
 }
 
 const WHITTED_BYTES_PER_PIXEL: u64 = 128;
-const PATH_BYTES_PER_PIXEL: u64 = 320;
+const PATH_BYTES_PER_PIXEL: u64 = 448;
 const POINTS_BYTES_PER_PIXEL: u64 = 256;
 
 /// The summary's note of samples clamped to the largest radiance a sample may carry (none:
