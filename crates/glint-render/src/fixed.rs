@@ -7,7 +7,9 @@
 //! bit for bit (its 24-bit mantissa sits above the grid); smaller magnitudes lose the bits
 //! below 2^-56. One sample's term is saturated at ±2^106, which only values beyond
 //! [`crate::MAX_SAMPLE_RADIANCE`] reach (1e15 · 2^56 < 2^105.9; the path tracer bounds every
-//! sample's radiance by it; only a filter's output could exceed it). A pixel sums at most
+//! sample's radiance by it; only a filter's output could exceed it; with a filter a term is a
+//! pass's sum over its samples, saturated alike, so only a pass mean above 1e15 / spp reaches
+//! it). A pixel sums at most
 //! [`MAX_TERMS`] = 2^20 terms (`limits::SPP`'s 65 536 × 16 passes, the path settings' cap), so
 //! |sum| ≤ 2^126 < 2^127: **no sum can overflow**.
 //!

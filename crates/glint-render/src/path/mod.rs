@@ -627,11 +627,14 @@ fn trace_lookups(
         let mut tracer = Tracer::new(world, frame, path.kernel);
         let (mut rejected, mut clamped) = (0, 0);
         let y0 = band * BAND_ROWS;
+        // A pass is never split between chunks, so its samples are summed per pixel in f32,
+        // in their fixed order (the guide sample first), and the pass's sum goes into the
+        // fixed-point sums once: a conversion per pixel and pass, not per sample.
+        let mut pass: Vec<(Rgb, Rgb)> = Vec::with_capacity(accs.len());
         for (k, a) in accs.iter_mut().enumerate() {
             let i = y0 * w + k;
             let g = &guides[i].sample;
-            fixed::add_rgb(&mut a.colour, g.rest + g.albedo * filtered_indirect[i]);
-            fixed::add_rgb(&mut a.direct, g.direct);
+            pass.push((g.rest + g.albedo * filtered_indirect[i], g.direct));
             fixed::add_rgb(&mut a.indirect, filtered_indirect[i]);
             a.covered += g.covered as u32;
             a.samples += 1;
@@ -652,10 +655,15 @@ fn trace_lookups(
                 Some(q) => map.choose(pos, q.normal, q.depth).map_or(Rgb::ZERO, |j| filtered_indirect[j]),
                 None => Rgb::ZERO,
             };
-            fixed::add_rgb(&mut a.colour, cs.rest + cs.albedo * indirect);
-            fixed::add_rgb(&mut a.direct, cs.direct);
+            let p = &mut pass[k];
+            p.0 += cs.rest + cs.albedo * indirect;
+            p.1 += cs.direct;
             a.covered += cs.covered as u32;
         });
+        for (a, (colour, direct)) in accs.iter_mut().zip(&pass) {
+            fixed::add_rgb(&mut a.colour, *colour);
+            fixed::add_rgb(&mut a.direct, *direct);
+        }
         hooks.report((accs.len() / w) as u64);
         BandStats { rays: tracer.counts(), rejected, clamped }
     })?;
