@@ -68,6 +68,9 @@ pub enum Command {
     /// Measure an image against a reference: MSE, relMSE, PSNR, SSIM, and a false-colour error
     /// image (docs/compare.md).
     Compare(CompareArgs),
+    /// Add the chunk files of a frame (`glint render --chunk I/N`) and finish it exactly as
+    /// one process would have: every setting comes from the chunks' headers (docs/cluster.md).
+    Merge(MergeArgs),
     /// Filter the indirect light of a path-mode AOV EXR (docs/aovs.md; the paper's split: the
     /// direct light stays as rendered): guided, bilateral or
     /// A-Trous, guided by its normal and depth channels.
@@ -127,6 +130,12 @@ pub struct RenderArgs {
     /// a filter sees only the window. Overrides a Mitsuba film's crop.
     #[arg(long, value_name = "X0,Y0,X1,Y1")]
     pub crop: Option<String>,
+    /// Render chunk I (0-based) of N of a path frame's passes (its samples per pixel without a
+    /// filter) into a chunk file (-o part_I.exr) for `glint merge`; `auto/N` takes I from a
+    /// Slurm array (SLURM_ARRAY_TASK_ID − SLURM_ARRAY_TASK_MIN) or a Kubernetes Indexed Job
+    /// (JOB_COMPLETION_INDEX). docs/cluster.md.
+    #[arg(long, value_name = "I/N")]
+    pub chunk: Option<String>,
     /// Samples per pixel. Whitted: a square number (N×N stratified supersampling): 1, 4, 9,
     /// 16, ...; path: any number (per pass with --time).
     #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
@@ -428,6 +437,20 @@ pub struct FilterArgs {
     pub filter_options: FilterOptions,
     #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub threads: Option<usize>,
+    /// Print no summary.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct MergeArgs {
+    /// The chunk files, every chunk of the frame once (any order).
+    #[arg(required = true)]
+    pub inputs: Vec<PathBuf>,
+    /// Output image: .png (tone-mapped as the chunks' render said) or .exr (with AOVs); never
+    /// one of the inputs.
+    #[arg(short, long)]
+    pub output: PathBuf,
     /// Print no summary.
     #[arg(long, short)]
     pub quiet: bool,

@@ -101,6 +101,7 @@ fn minimal_invocation(name: &str, data: Option<&str>) -> Option<Vec<String>> {
         "sky convert" => v(&["sky", "convert", "sky.png", "faces", "--to", "faces"]),
         "compare" => v(&["compare", "render.png", "render.png"]),
         "filter" => v(&["filter", "path.exr", "-o", "filtered.exr"]),
+        "merge" => v(&["merge", "part_0.exr", "-o", "merged.png"]),
         other => panic!("subcommand `{other}` has no minimal invocation here: add one"),
     }
 }
@@ -118,6 +119,11 @@ fn every_subcommand_has_help_and_runs_with_its_defaults() {
     )
     .unwrap();
     let o = glint(&["render", "--mode", "path", "--width", "32", "--height", "24", "-q", "-o", "path.exr"], &d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // And a frame in one chunk for `merge`.
+    let chunk =
+        ["render", "--mode", "path", "--width", "32", "--height", "24", "-q", "--chunk", "0/1", "-o", "part_0.exr"];
+    let o = glint(&chunk, &d);
     assert!(o.status.success(), "{}", stderr(&o));
 
     let data = shared("data/scenes/cornell_box/cornell_box_open.obj").map(|_| {
@@ -141,7 +147,7 @@ fn every_subcommand_has_help_and_runs_with_its_defaults() {
         assert!(o.status.success(), "`glint {}` failed: {err}", args.join(" "));
         assert!(!err.contains("panicked"), "`glint {}` panicked: {err}", args.join(" "));
     }
-    for written in ["render.png", "sample.ply", "faces/px.png", "filtered.exr"] {
+    for written in ["render.png", "sample.ply", "faces/px.png", "filtered.exr", "merged.png"] {
         assert!(d.join(written).is_file(), "{written} was not written");
     }
 }

@@ -59,7 +59,7 @@ pub mod ztest;
 
 pub use atomic::atomic_write;
 pub use error::{ImageError, UnknownToneMap};
-pub use exr_io::write_exr;
+pub use exr_io::{ExrTable, TableData, read_exr_table, write_exr, write_exr_table};
 pub use hdr_io::write_hdr;
 pub use planar::{Channel, Image, RgbPlanes};
 pub use png_io::{JPEG_QUALITY, PngOptions, encode_srgb8, write_jpeg, write_png};

@@ -13,7 +13,7 @@
 
 use crate::bands::Hooks;
 use crate::film::Film;
-use crate::path::{PathAccumulator, PathSettings, render_path};
+use crate::path::{PathAccumulator, PathSettings, PathSums, Share, render_path, render_path_sums};
 use crate::points::{PointFrame, PointRenderer, PointSettings};
 use crate::settings::{ImageSettings, WhittedSettings};
 use crate::stats::FrameStats;
@@ -101,7 +101,9 @@ enum Step {
 }
 
 /// Bytes a frame of each mode holds per pixel at its peak, measured (peak RSS at 1024² less
-/// the 8 × 8 frame's, over the pixels: Whitted 100, path 278, points about 250; rounded up):
+/// the 8 × 8 frame's, over the pixels: Whitted 100, path 278 before its sums went to fixed
+/// point, which added 160 (256-byte `PixelSums` for a 96-byte record), points about 250;
+/// rounded up):
 /// the film, the mode's accumulators and guides, the filter's planes, the points mode's
 /// buffers and pyramid. A frame is refused before any of it is
 /// allocated when `pixels ×` this exceeds the memory budget; the buffers themselves are then
@@ -115,7 +117,7 @@ fn frame_bytes_per_pixel(kind: RenderMode) -> u64 {
 }
 
 const WHITTED_BYTES_PER_PIXEL: u64 = 128;
-const PATH_BYTES_PER_PIXEL: u64 = 320;
+const PATH_BYTES_PER_PIXEL: u64 = 448;
 const POINTS_BYTES_PER_PIXEL: u64 = 256;
 
 /// The summary's note of samples clamped to the largest radiance a sample may carry (none:
@@ -393,29 +395,7 @@ impl Renderer {
         match step {
             Step::Whole => {
                 let mut stats = render_path(world, camera, image, settings, hooks, &mut self.film)?;
-                let trace = stats.stage("trace").unwrap_or_default();
-                stats.summary = format!(
-                    "path {}x{} at {} spp ({} pass{}, {}, filter {}) in {:.3} s ({:.2} M paths/s; trace {:.3} s at {:.1} Mrays/s, filter {:.1} ms, {}), {} NaN/inf samples dropped{}",
-                    image.width,
-                    image.height,
-                    stats.samples_per_pixel,
-                    stats.passes,
-                    if stats.passes == 1 { "" } else { "es" },
-                    // Mitsuba's total vertex budget when the scene gave one, else glint's.
-                    match settings.max_depth {
-                        Some(d) => format!("max depth {d}"),
-                        None => format!("{} bounces", settings.max_bounces),
-                    },
-                    settings.filter,
-                    stats.elapsed.as_secs_f64(),
-                    stats.mpaths_per_second(),
-                    trace.as_secs_f64(),
-                    stats.mrays_per_second(),
-                    stats.stage("filter").unwrap_or_default().as_secs_f64() * 1e3,
-                    self.built(),
-                    stats.rejected_samples,
-                    clamped_note(stats.clamped_samples),
-                );
+                stats.summary = self.path_summary(image, settings, &stats);
                 Ok(stats)
             }
             Step::Pass { restart } => {
@@ -488,6 +468,69 @@ impl Renderer {
             );
         }
         Ok(stats)
+    }
+
+    /// The summary of a path frame (or a share of one).
+    fn path_summary(&self, image: &ImageSettings, settings: &PathSettings, stats: &FrameStats) -> String {
+        let trace = stats.stage("trace").unwrap_or_default();
+        format!(
+            "path {}x{} at {} spp ({} pass{}, {}, filter {}) in {:.3} s ({:.2} M paths/s; trace {:.3} s at {:.1} Mrays/s, filter {:.1} ms, {}), {} NaN/inf samples dropped{}",
+            image.width,
+            image.height,
+            stats.samples_per_pixel,
+            stats.passes,
+            if stats.passes == 1 { "" } else { "es" },
+            // Mitsuba's total vertex budget when the scene gave one, else glint's.
+            match settings.max_depth {
+                Some(d) => format!("max depth {d}"),
+                None => format!("{} bounces", settings.max_bounces),
+            },
+            settings.filter,
+            stats.elapsed.as_secs_f64(),
+            stats.mpaths_per_second(),
+            trace.as_secs_f64(),
+            stats.mrays_per_second(),
+            stats.stage("filter").unwrap_or_default().as_secs_f64() * 1e3,
+            self.built(),
+            stats.rejected_samples,
+            clamped_note(stats.clamped_samples),
+        )
+    }
+
+    /// Trace `share` of a path frame's units (its passes with a filter, its samples per pixel
+    /// without one) into per-pixel sums: what a chunk file holds. Every share's sums added and
+    /// resolved ([`PathSums::add`], [`PathSums::resolve`]) are [`Renderer::render`]'s film bit
+    /// for bit, which resolves the whole frame's sums the same way. The held picture is left
+    /// as it is.
+    ///
+    /// # Errors
+    /// As [`Renderer::render`]; [`RenderError::InvalidSetting`] for a mode other than path
+    /// (the Whitted and points modes are not split by samples) and a share outside the
+    /// frame's units.
+    pub fn render_share(
+        &mut self,
+        camera: &Camera,
+        image: &ImageSettings,
+        mode: &Mode,
+        share: Share,
+        hooks: &Hooks,
+    ) -> Result<(FrameStats, PathSums), RenderError> {
+        let Mode::Path(settings) = mode else {
+            return Err(RenderError::InvalidSetting(format!(
+                "chunks of samples split path frames; a {} frame renders whole (or in windows: --crop)",
+                mode.kind().name()
+            )));
+        };
+        if !self.supports(mode.kind()) {
+            return Err(RenderError::InvalidSetting(
+                "this scene has only point clouds: the ray-tracing modes have nothing to trace".into(),
+            ));
+        }
+        check_frame_memory(image, mode.kind())?;
+        let (mut stats, sums) = render_path_sums(&self.world, camera, image, settings, share, hooks)?;
+        stats.summary =
+            format!("chunk {}/{} of {}", share.index, share.count, self.path_summary(image, settings, &stats));
+        Ok((stats, sums))
     }
 
     /// "build X ms, N triangles": the acceleration structures, for summaries.

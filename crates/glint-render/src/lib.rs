@@ -11,8 +11,10 @@
 #![warn(clippy::must_use_candidate, clippy::missing_errors_doc, clippy::missing_panics_doc)]
 
 mod bands;
+pub mod chunk;
 mod error;
 mod film;
+pub mod fixed;
 mod frame;
 pub mod path;
 pub mod points;

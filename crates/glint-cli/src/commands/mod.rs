@@ -14,6 +14,7 @@ mod bench_points;
 mod bench_view;
 mod compare;
 mod filter;
+mod merge;
 mod points;
 mod render;
 mod sky;
@@ -31,6 +32,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Some(Command::Sky(s)) => sky::run(s),
         Some(Command::Compare(args)) => compare::run(&args),
         Some(Command::Filter(args)) => filter::run(&args),
+        Some(Command::Merge(args)) => merge::run(&args),
         Some(Command::Points(p)) => points::run(p),
         Some(Command::View(args)) => view::run(&args),
     }

@@ -1,7 +1,7 @@
 //! `glint render`: load, apply command-line overrides, render, write atomically.
 
 use super::points;
-use crate::cli::{FilterArg, FilterOptions, FlipArg, GuideArg, RenderArgs, SkyArgs, SkyFixArg};
+use crate::cli::{FilterArg, FilterOptions, FlipArg, GuideArg, RenderArgs, SkyArgs, SkyFixArg, ToneMapArg};
 use crate::input::{self, parse_vec3};
 use crate::progress::LazyProgress;
 use anyhow::{Context, Result, bail};
@@ -9,19 +9,20 @@ use glint_filter::{AtrousParams, BilateralParams, Filter, FilterKind, GuideChann
 use glint_formats::points::ColourBy;
 use glint_formats::sky::{FaceTransform, SkyLoadOptions, SkySource, load_sky};
 use glint_image::PngOptions;
-use glint_render::path::PathSettings;
+use glint_render::chunk::Chunk;
+use glint_render::path::{PathSettings, Share};
 use glint_render::{Film, Hooks, ImageSettings, Mode, ModeSettings, Renderer, Window};
 use glint_scene::{Camera, Fov, RenderMode, Scene, Sky};
 use std::path::Path;
 use std::time::Duration;
 
 #[derive(Clone, Copy, PartialEq, Eq)]
-enum OutputKind {
+pub enum OutputKind {
     Png,
     Exr,
 }
 
-fn output_kind(path: &Path) -> Result<OutputKind> {
+pub fn output_kind(path: &Path) -> Result<OutputKind> {
     match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
         Some("png") => Ok(OutputKind::Png),
         Some("exr") => Ok(OutputKind::Exr),
@@ -260,11 +261,121 @@ fn frame_settings(args: &RenderArgs, scene: &Scene) -> Result<(ImageSettings, Mo
     Ok((image, modes.mode(kind)))
 }
 
+/// `--chunk I/N`, or `auto/N` with I from the scheduler: a Slurm array task
+/// (`SLURM_ARRAY_TASK_ID` less `SLURM_ARRAY_TASK_MIN`, 0 when unset) or a Kubernetes Indexed
+/// Job (`JOB_COMPLETION_INDEX`). `env` reads a variable.
+pub fn parse_chunk(text: &str, env: impl Fn(&str) -> Option<String>) -> Result<Share> {
+    let form = || anyhow::anyhow!("--chunk {text:?}: expected I/N (chunk I of N, 0-based, e.g. 0/4) or auto/N");
+    let (i, n) = text.split_once('/').ok_or_else(form)?;
+    let count: u32 = n.trim().parse().map_err(|_| form())?;
+    let number = |name: &str, v: &str| -> Result<u32> {
+        v.trim().parse().map_err(|_| anyhow::anyhow!("--chunk {text}: {name}={v:?} is not a whole number"))
+    };
+    let index = if i.trim() == "auto" {
+        if let Some(id) = env("SLURM_ARRAY_TASK_ID") {
+            let id = number("SLURM_ARRAY_TASK_ID", &id)?;
+            let min = env("SLURM_ARRAY_TASK_MIN").map(|m| number("SLURM_ARRAY_TASK_MIN", &m)).transpose()?.unwrap_or(0);
+            id.checked_sub(min).ok_or_else(|| {
+                anyhow::anyhow!("--chunk {text}: SLURM_ARRAY_TASK_ID {id} is below SLURM_ARRAY_TASK_MIN {min}")
+            })?
+        } else if let Some(k) = env("JOB_COMPLETION_INDEX") {
+            number("JOB_COMPLETION_INDEX", &k)?
+        } else {
+            bail!(
+                "--chunk {text}: neither SLURM_ARRAY_TASK_ID (a Slurm job array) nor JOB_COMPLETION_INDEX (a Kubernetes Indexed Job) is set; give the index: --chunk I/{count}"
+            );
+        }
+    } else {
+        i.trim().parse().map_err(|_| form())?
+    };
+    if count == 0 || index >= count {
+        bail!("--chunk {text}: chunk {index} of {count} does not exist (chunks are numbered 0..{count})");
+    }
+    Ok(Share { index, count })
+}
+
+/// FNV-1a, 128 bits (stable: the same in every process and build), over formatted text (the scene's `Debug` form is large: hashed as it
+/// is written, never held).
+struct Fnv128(u128);
+
+impl std::fmt::Write for Fnv128 {
+    fn write_str(&mut self, s: &str) -> std::fmt::Result {
+        const PRIME: u128 = 0x0000_0000_0100_0000_0000_0000_0000_013B;
+        for b in s.bytes() {
+            self.0 ^= u128::from(b);
+            self.0 = self.0.wrapping_mul(PRIME);
+        }
+        Ok(())
+    }
+}
+
+/// The hash of everything that changes a chunked frame's picture: the resolved scene (after
+/// every command-line override: camera, size, time, sky), the image (size, crop, seed), the
+/// mode's settings (spp, passes, bounces, filter and its settings, kernel) and the output
+/// settings the merge applies.
+fn frame_hash(scene: &Scene, image: &ImageSettings, mode: &Mode, output: &[(String, String)]) -> String {
+    use std::fmt::Write;
+    let mut h = Fnv128(0x6c62_272e_07bb_0142_62b8_2175_6295_c58d);
+    // Writing into the hasher cannot fail.
+    let _ = write!(h, "{scene:?}\u{1}{image:?}\u{1}{mode:?}\u{1}{output:?}");
+    format!("{:032x}", h.0)
+}
+
+/// The output settings a chunk carries for the merge (as `glint.setting.*`).
+fn output_settings(args: &RenderArgs) -> Vec<(String, String)> {
+    use clap::ValueEnum;
+    let tonemap = args.tonemap.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_default();
+    vec![
+        ("exposure".into(), format!("{:?}", args.exposure)),
+        ("tonemap".into(), tonemap),
+        ("alpha".into(), args.alpha.to_string()),
+    ]
+}
+
+/// The PNG options of a chunk's `glint.setting.*` attributes (`from` names the file).
+pub fn png_options_from(settings: &[(String, String)], from: &Path) -> Result<PngOptions> {
+    use clap::ValueEnum;
+    let get = |k: &str| {
+        settings
+            .iter()
+            .find(|(n, _)| n == k)
+            .map(|(_, v)| v.as_str())
+            .ok_or_else(|| anyhow::anyhow!("{}: the header has no glint.setting.{k}", from.display()))
+    };
+    let bad = |k: &str, v: &str| anyhow::anyhow!("{}: glint.setting.{k} {v:?} cannot be read", from.display());
+    let exposure: f32 = get("exposure")?.parse().map_err(|_| bad("exposure", get("exposure").unwrap_or("")))?;
+    let tonemap =
+        ToneMapArg::from_str(get("tonemap")?, false).map_err(|_| bad("tonemap", get("tonemap").unwrap_or("")))?;
+    let alpha = match get("alpha")? {
+        "true" => true,
+        "false" => false,
+        v => return Err(bad("alpha", v)),
+    };
+    if !exposure.is_finite() {
+        return Err(bad("exposure", get("exposure")?));
+    }
+    Ok(PngOptions { exposure, tone_map: tonemap.into(), alpha })
+}
+
 pub fn run(args: &RenderArgs) -> Result<()> {
     let kind = output_kind(&args.output)?;
     if !args.exposure.is_finite() {
         bail!("--exposure must be a finite number");
     }
+    let share = match &args.chunk {
+        Some(text) => {
+            let share = parse_chunk(text, |k| std::env::var(k).ok())?;
+            if kind != OutputKind::Exr {
+                bail!(
+                    "--chunk writes a chunk file: give -o a .exr name (e.g. part_{}.exr), not {}",
+                    share.index,
+                    args.output.display()
+                );
+            }
+            Some(share)
+        }
+        None => None,
+    };
     let pool = input::thread_pool(args.threads)?;
     points::check_point_args(&args.points)?;
     let colour_by = args.points.colour_by;
@@ -292,6 +403,42 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         );
     }
     let camera = scene.camera;
+    if let Some(share) = share {
+        if frame_mode.kind() != RenderMode::Path {
+            bail!(
+                "--chunk splits a path frame's passes; this is a {} frame (--mode path, or split it in windows with --crop)",
+                frame_mode.kind().name()
+            );
+        }
+        let settings = output_settings(args);
+        let hash = frame_hash(&scene, &image, &frame_mode, &settings);
+        return pool.install(|| -> Result<()> {
+            let mut renderer = Renderer::new(scene)?;
+            let progress = LazyProgress::new(u64::from(image.height), !args.quiet);
+            let advance = |rows| progress.advance(rows);
+            let (stats, sums) =
+                renderer.render_share(&camera, &image, &frame_mode, share, &Hooks::with_progress(&advance))?;
+            progress.finish();
+            let Mode::Path(path) = frame_mode else { unreachable!("checked above") };
+            let units = share.units(path.units());
+            let chunk = Chunk {
+                hash,
+                version: env!("CARGO_PKG_VERSION").to_string(),
+                index: share.index,
+                count: share.count,
+                first_unit: units.start,
+                end_unit: units.end,
+                total_units: path.units(),
+                settings,
+                sums,
+            };
+            chunk.write(&args.output)?;
+            if !args.quiet {
+                eprintln!("glint: {} -> {}", stats.summary, args.output.display());
+            }
+            Ok(())
+        });
+    }
     pool.install(|| -> Result<()> {
         if points_mode {
             points::prepare_clouds(&mut scene, &args.points, args.quiet)?;
@@ -306,23 +453,34 @@ pub fn run(args: &RenderArgs) -> Result<()> {
 }
 
 fn write_output(args: &RenderArgs, kind: OutputKind, film: &Film, summary: &str) -> Result<()> {
+    let options = PngOptions { exposure: args.exposure, tone_map: args.tonemap.into(), alpha: args.alpha };
+    write_film(&args.output, kind, film, &options, summary, args.quiet)
+}
+
+/// Write a film to `output`: the beauty as PNG, or every AOV as EXR (atomically).
+pub fn write_film(
+    output: &Path,
+    kind: OutputKind,
+    film: &Film,
+    options: &PngOptions,
+    summary: &str,
+    quiet: bool,
+) -> Result<()> {
     // The planes of the output image (21 with the AOVs, 3 or 4 without) and the encoded bytes.
     let channels: u64 = match kind {
         OutputKind::Png => 4 + 1,
         OutputKind::Exr => 21 + 21,
     };
     let pixels = u64::from(film.width) * u64::from(film.height);
-    let what = || format!("the output image {} ({} x {})", args.output.display(), film.width, film.height);
+    let what = || format!("the output image {} ({} x {})", output.display(), film.width, film.height);
     glint_core::memory::check(what, pixels.saturating_mul(channels * 4))?;
     let image = match kind {
-        OutputKind::Png => film.beauty_image(args.alpha),
+        OutputKind::Png => film.beauty_image(options.alpha),
         OutputKind::Exr => film.aov_image(),
     };
-    let options = PngOptions { exposure: args.exposure, tone_map: args.tonemap.into(), alpha: args.alpha };
-    glint_image::write_image(&args.output, &image, &options)
-        .with_context(|| format!("cannot write {}", args.output.display()))?;
-    if !args.quiet {
-        eprintln!("glint: {summary} -> {}", args.output.display());
+    glint_image::write_image(output, &image, options).with_context(|| format!("cannot write {}", output.display()))?;
+    if !quiet {
+        eprintln!("glint: {summary} -> {}", output.display());
     }
     Ok(())
 }

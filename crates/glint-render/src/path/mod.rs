@@ -24,10 +24,12 @@ mod lookup;
 pub mod models;
 mod progressive;
 mod shading;
+mod sums;
 mod wavefront;
 
 use crate::bands::{self, Hooks};
-use crate::film::{Film, FilmPixel};
+use crate::film::Film;
+use crate::fixed;
 use crate::settings::ImageSettings;
 use crate::stats::{BandStats, FrameStats};
 use crate::world::SurfaceHit;
@@ -42,6 +44,7 @@ use lookup::GuideMap;
 pub use progressive::PathAccumulator;
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
+pub use sums::{FirstSample, PathSums, PixelSums};
 use wavefront::{Request, Wavefront};
 
 /// Rows per unit of parallel work.
@@ -156,48 +159,68 @@ impl PathSettings {
     fn filtered(&self) -> bool {
         !matches!(self.filter, Filter::None)
     }
+
+    /// The frame's units of work, the steps a [`Share`] splits: its passes with a filter (one
+    /// guide pass and the lookups that read it), its samples per pixel without one (every
+    /// sample is independent). A time budget adds units while it lasts.
+    #[must_use]
+    pub fn units(&self) -> u64 {
+        if self.filtered() { u64::from(self.passes) } else { u64::from(self.passes) * u64::from(self.spp) }
+    }
+}
+
+/// Which of a frame's units a render traces: share `index` (0-based) of `count`, each a
+/// contiguous run of units (share i: units ⌊i·T/count⌋ .. ⌊(i+1)·T/count⌋ of T), each unit
+/// traced with exactly the random streams it has in the whole frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Share {
+    pub index: u32,
+    pub count: u32,
+}
+
+impl Share {
+    /// The whole frame.
+    pub const WHOLE: Share = Share { index: 0, count: 1 };
+
+    /// This share's units of a frame of `total`.
+    #[must_use]
+    pub fn units(&self, total: u64) -> std::ops::Range<u64> {
+        let at = |i: u32| (u128::from(total) * u128::from(i) / u128::from(self.count.max(1))) as u64;
+        at(self.index)..at(self.index + 1)
+    }
+
+    /// # Errors
+    /// [`RenderError::InvalidSetting`] when the index is not below the count, or the frame has
+    /// fewer units than shares (a share would be empty).
+    pub fn validate(&self, path: &PathSettings) -> Result<(), RenderError> {
+        let total = path.units();
+        let unit = if path.filtered() { "passes (--passes)" } else { "samples per pixel (--spp × --passes)" };
+        if self.count == 0 || self.index >= self.count {
+            return Err(RenderError::InvalidSetting(format!(
+                "chunk {}/{}: the index must be below the count (0-based)",
+                self.index, self.count
+            )));
+        }
+        if u64::from(self.count) > total {
+            return Err(RenderError::InvalidSetting(format!(
+                "{} chunks of a frame of {total} {unit}: at most one chunk per unit",
+                self.count
+            )));
+        }
+        if self.count > 1 && path.time_budget.is_some() {
+            return Err(RenderError::InvalidSetting(
+                "a time budget (--time) decides the passes while rendering: a chunked frame needs a fixed number"
+                    .into(),
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// The guide sample of one pixel.
 #[derive(Clone, Copy, Debug, Default)]
 struct GuidePixel {
     sample: CameraSample,
-}
-
-/// Per-pixel sums over all samples of all passes.
-#[derive(Clone, Copy, Debug, Default)]
-struct Accum {
-    colour: Rgb,
-    direct: Rgb,
-    /// Sum over passes of the indirect value that went into the beauty at this pixel's centre.
-    indirect: Rgb,
-    covered: u32,
-    samples: u32,
-    /// Without a filter: the sums of each sample's radiance and of its square, in double
-    /// precision (the variance is their difference; f32 would cancel).
-    sum: [f64; 3],
-    sum_sq: [f64; 3],
-}
-
-impl Accum {
-    #[inline]
-    fn add_moments(&mut self, c: Rgb) {
-        for (k, v) in c.to_array().into_iter().enumerate() {
-            let v = f64::from(v);
-            self.sum[k] += v;
-            self.sum_sq[k] += v * v;
-        }
-    }
-
-    /// The sample variance of one sample's radiance (Bessel-corrected; 0 below two samples).
-    fn variance(&self) -> Rgb {
-        if self.samples < 2 {
-            return Rgb::ZERO;
-        }
-        let n = f64::from(self.samples);
-        let v = |k: usize| ((self.sum_sq[k] - self.sum[k] * self.sum[k] / n) / (n - 1.0)).max(0.0) as f32;
-        Rgb::new(v(0), v(1), v(2))
-    }
 }
 
 /// Everything a pass needs, shared by the threads.
@@ -378,7 +401,8 @@ impl<'a> Tracer<'a> {
 }
 
 /// Render a path-traced frame of the world seen by `camera` into `film` (resized): passes of
-/// `path.spp` samples per pixel, repeated while the time budget lasts, averaged.
+/// `path.spp` samples per pixel, repeated while the time budget lasts, averaged. The frame's
+/// [`PathSums`] resolved ([`render_path_sums`] of the whole frame).
 ///
 /// # Errors
 /// [`RenderError::InvalidSetting`] for settings outside their limits; [`RenderError::Filter`]
@@ -391,54 +415,105 @@ pub fn render_path(
     hooks: &Hooks,
     film: &mut Film,
 ) -> Result<FrameStats, RenderError> {
+    let (mut stats, sums) = render_path_sums(world, camera, image, path, Share::WHOLE, hooks)?;
+    let start = Instant::now();
+    sums.resolve(film)?;
+    stats.elapsed += start.elapsed();
+    Ok(stats)
+}
+
+/// Trace `share` of a path-traced frame's units (see [`PathSettings::units`]) into per-pixel
+/// sums. A time budget applies to the whole frame only (it adds units while it lasts, up to
+/// [`fixed::MAX_TERMS`] samples per pixel).
+///
+/// # Errors
+/// As [`render_path`]; a share outside the frame's units ([`Share::validate`]).
+pub fn render_path_sums(
+    world: &World,
+    camera: &Camera,
+    image: &ImageSettings,
+    path: &PathSettings,
+    share: Share,
+    hooks: &Hooks,
+) -> Result<(FrameStats, PathSums), RenderError> {
     image.validate()?;
     path.validate()?;
+    share.validate(path)?;
     let start = Instant::now();
     let frame = Frame::new(world, camera, image, path);
     let what = || format!("the path accumulator of a {} x {} image", image.width, image.height);
-    let mut acc = glint_core::memory::try_filled(what, image.pixels(), Accum::default())?;
-    let mut aovs: Vec<GuidePixel> = Vec::new();
+    let mut acc = glint_core::memory::try_filled(what, image.pixels(), PixelSums::default())?;
+    let mut first: Option<Vec<GuidePixel>> = None;
     let mut stats = FrameStats::default();
     let (mut trace, mut filter) = (Duration::ZERO, Duration::ZERO);
-    // Progress is reported over the first pass, by the loop that finishes its pixels.
+    // Progress is reported over the first step, by the loop that finishes its pixels.
     let quiet = Hooks { progress: None, ..*hooks };
-    let mut pass = 0u32;
+    let filtered = path.filtered();
+    let spp = u64::from(path.spp);
+    let units = share.units(path.units());
+    // A step is a pass (filtered) or the part of a pass's samples inside the share.
+    let per_pass = if filtered { 1 } else { spp };
+    let mut unit = units.start;
+    let mut passes = 0u32;
     loop {
         let pass_start = Instant::now();
-        let base = pass as u64 * path.spp as u64;
+        let pass = unit / per_pass;
+        let step_end = ((pass + 1) * per_pass).min(if share.count == 1 { u64::MAX } else { units.end });
+        let (base, count) = if filtered { (pass * spp, 1) } else { (unit, step_end - unit) };
+        let first_step = unit == units.start;
         let trace_start = Instant::now();
-        let guide_hooks = if pass == 0 && !(path.filtered() && path.spp > 1) { hooks } else { &quiet };
-        let guides = trace_guides(world, &frame, path, base, &mut acc, guide_hooks, &mut stats)?;
+        let guide_hooks = if first_step && !(filtered && spp > 1) { hooks } else { &quiet };
+        let guides = trace_guides(world, &frame, path, base, count, &mut acc, guide_hooks, &mut stats)?;
         trace += trace_start.elapsed();
-        if path.filtered() {
+        if filtered {
             let filter_start = Instant::now();
             let filtered = filter_guides(world, &frame, &guides, &path.filter)?;
             filter += filter_start.elapsed();
             let trace_start = Instant::now();
-            let lookup_hooks = if pass == 0 && path.spp > 1 { hooks } else { &quiet };
+            let lookup_hooks = if first_step && spp > 1 { hooks } else { &quiet };
             trace_lookups(world, &frame, path, base, &guides, &filtered, &mut acc, lookup_hooks, &mut stats)?;
             trace += trace_start.elapsed();
         }
-        if pass == 0 {
-            aovs = guides;
+        if unit == 0 {
+            first = Some(guides);
         }
-        pass += 1;
+        unit = step_end;
+        passes += 1;
         let pass_time = pass_start.elapsed();
-        if pass < path.passes {
+        if unit < units.end {
             continue;
         }
+        // Only a whole frame has a time budget (Share::validate), and its passes stop where a
+        // pixel's sums could overflow.
+        let room = (unit / per_pass + 1) * spp <= fixed::MAX_TERMS;
         match path.time_budget {
-            Some(budget) if start.elapsed() + pass_time <= budget && pass < u32::MAX / path.spp.max(1) => {}
+            Some(budget) if start.elapsed() + pass_time <= budget && room => {}
             _ => break,
         }
     }
-    resolve_film(&acc, &aovs, path.filtered(), pass, image, film)?;
-    stats.passes = pass;
-    stats.samples_per_pixel = pass * path.spp;
-    stats.paths = image.pixels() as u64 * u64::from(pass * path.spp);
+    let samples = if filtered { (unit - units.start) * spp } else { unit - units.start };
+    let sums = PathSums {
+        width: image.width,
+        height: image.height,
+        filtered,
+        units: unit - units.start,
+        pixels: acc,
+        first: first.map(|g| {
+            g.iter()
+                .map(|g| FirstSample {
+                    normal: g.sample.guide.map_or(Vec3::ZERO, |q| q.normal),
+                    albedo: g.sample.albedo,
+                    depth: g.sample.guide.map_or(f32::INFINITY, |q| q.depth),
+                })
+                .collect()
+        }),
+    };
+    stats.passes = passes;
+    stats.samples_per_pixel = samples as u32;
+    stats.paths = image.pixels() as u64 * samples;
     stats.elapsed = start.elapsed();
     stats.stages = vec![("trace", trace), ("filter", filter)];
-    Ok(stats)
+    Ok((stats, sums))
 }
 
 /// The scene's depth scale for the filter's guide: 1 / its bounding diagonal.
@@ -448,13 +523,16 @@ fn depth_scale(world: &World) -> f32 {
 }
 
 /// A pass's first step: every pixel's guide ray (through its centre when a filter runs) and,
-/// without a filter, every sample of the pass, added to `acc`.
+/// without a filter, `count` samples from `base` on, added to `acc` (the returned guides are
+/// sample `base`'s).
+#[allow(clippy::too_many_arguments)]
 fn trace_guides(
     world: &World,
     frame: &Frame,
     path: &PathSettings,
     base: u64,
-    acc: &mut [Accum],
+    count: u64,
+    acc: &mut [PixelSums],
     hooks: &Hooks,
     stats: &mut FrameStats,
 ) -> Result<Vec<GuidePixel>, RenderError> {
@@ -463,7 +541,6 @@ fn trace_guides(
     let filtered = path.filtered();
     let mut guides = vec![GuidePixel::default(); acc.len()];
     let parts: Vec<_> = guides.chunks_mut(band_len).zip(acc.chunks_mut(band_len)).collect();
-    let count = if filtered { 1 } else { path.spp as u64 };
     let totals = bands::run(parts, frame.schedule, hooks, |band, (gs, accs)| {
         let mut tracer = Tracer::new(world, frame, path.kernel);
         let (mut rejected, mut clamped) = (0, 0);
@@ -488,11 +565,9 @@ fn trace_guides(
                 g.sample = *cs;
             }
             if !filtered {
-                let c = cs.rest + cs.albedo * cs.indirect;
-                a.add_moments(c);
-                a.colour += c;
-                a.direct += cs.direct;
-                a.indirect += cs.indirect;
+                a.add_moments(cs.rest + cs.albedo * cs.indirect);
+                fixed::add_rgb(&mut a.direct, cs.direct);
+                fixed::add_rgb(&mut a.indirect, cs.indirect);
                 a.covered += cs.covered as u32;
                 a.samples += 1;
             }
@@ -538,7 +613,7 @@ fn trace_lookups(
     base: u64,
     guides: &[GuidePixel],
     filtered_indirect: &[Rgb],
-    acc: &mut [Accum],
+    acc: &mut [PixelSums],
     hooks: &Hooks,
     stats: &mut FrameStats,
 ) -> Result<(), RenderError> {
@@ -552,12 +627,15 @@ fn trace_lookups(
         let mut tracer = Tracer::new(world, frame, path.kernel);
         let (mut rejected, mut clamped) = (0, 0);
         let y0 = band * BAND_ROWS;
+        // A pass is never split between chunks, so its samples are summed per pixel in f32,
+        // in their fixed order (the guide sample first), and the pass's sum goes into the
+        // fixed-point sums once: a conversion per pixel and pass, not per sample.
+        let mut pass: Vec<(Rgb, Rgb)> = Vec::with_capacity(accs.len());
         for (k, a) in accs.iter_mut().enumerate() {
             let i = y0 * w + k;
             let g = &guides[i].sample;
-            a.colour += g.rest + g.albedo * filtered_indirect[i];
-            a.direct += g.direct;
-            a.indirect += filtered_indirect[i];
+            pass.push((g.rest + g.albedo * filtered_indirect[i], g.direct));
+            fixed::add_rgb(&mut a.indirect, filtered_indirect[i]);
             a.covered += g.covered as u32;
             a.samples += 1;
         }
@@ -577,47 +655,21 @@ fn trace_lookups(
                 Some(q) => map.choose(pos, q.normal, q.depth).map_or(Rgb::ZERO, |j| filtered_indirect[j]),
                 None => Rgb::ZERO,
             };
-            a.colour += cs.rest + cs.albedo * indirect;
-            a.direct += cs.direct;
+            let p = &mut pass[k];
+            p.0 += cs.rest + cs.albedo * indirect;
+            p.1 += cs.direct;
             a.covered += cs.covered as u32;
         });
+        for (a, (colour, direct)) in accs.iter_mut().zip(&pass) {
+            fixed::add_rgb(&mut a.colour, *colour);
+            fixed::add_rgb(&mut a.direct, *direct);
+        }
         hooks.report((accs.len() / w) as u64);
         BandStats { rays: tracer.counts(), rejected, clamped }
     })?;
     stats.rays.add(&totals.rays);
     stats.rejected_samples += totals.rejected;
     stats.clamped_samples += totals.clamped;
-    Ok(())
-}
-
-/// The frame's pixels from the sums of every pass; normals, depth and albedo from the first
-/// pass's guide samples.
-fn resolve_film(
-    acc: &[Accum],
-    aovs: &[GuidePixel],
-    filtered: bool,
-    passes: u32,
-    image: &ImageSettings,
-    film: &mut Film,
-) -> Result<(), RenderError> {
-    film.reset(image.width, image.height)?;
-    film.path_aovs = true;
-    film.variance = !filtered;
-    for ((p, a), g) in film.pixels.iter_mut().zip(acc).zip(aovs) {
-        let n = a.samples.max(1) as f32;
-        let guide = g.sample.guide;
-        *p = FilmPixel {
-            colour: a.colour / n,
-            normal: guide.map_or(Vec3::ZERO, |q| q.normal),
-            albedo: g.sample.albedo,
-            depth: guide.map_or(f32::INFINITY, |q| q.depth),
-            coverage: a.covered as f32 / n,
-            direct: a.direct / n,
-            indirect: if filtered { a.indirect / passes as f32 } else { a.indirect / n },
-            samples: a.samples as f32,
-            variance: if filtered { Rgb::ZERO } else { a.variance() },
-        };
-    }
     Ok(())
 }
 

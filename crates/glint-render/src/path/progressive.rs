@@ -25,6 +25,7 @@ use super::wavefront::Request;
 use super::{BAND_ROWS, FilterBuffers, Frame, PathSettings, Tracer, depth_scale, filter_indirect};
 use crate::bands::{self, Hooks};
 use crate::film::{Film, FilmPixel};
+use crate::fixed;
 use crate::settings::ImageSettings;
 use crate::stats::{BandStats, FrameStats};
 use crate::{RenderError, World};
@@ -37,8 +38,9 @@ use std::time::{Duration, Instant};
 /// Per-pixel sums over every sample of every pass.
 #[derive(Clone, Copy, Debug, Default)]
 struct Sums {
-    /// rest + albedo ⊙ indirect, sample by sample (the unfiltered beauty).
-    colour: Rgb,
+    /// rest + albedo ⊙ indirect, sample by sample (the unfiltered beauty), in fixed point as
+    /// `render_path` sums it, so that N passes are its N samples bit for bit.
+    colour: [i128; 3],
     rest: Rgb,
     albedo: Rgb,
     direct: Rgb,
@@ -150,7 +152,7 @@ impl PathAccumulator {
                     guides[k] = cs.guide;
                     albedos[k] = cs.albedo;
                 }
-                a.colour += cs.rest + cs.albedo * cs.indirect;
+                fixed::add_rgb(&mut a.colour, cs.rest + cs.albedo * cs.indirect);
                 a.rest += cs.rest;
                 a.albedo += cs.albedo;
                 a.direct += cs.direct;
@@ -230,7 +232,7 @@ impl PathAccumulator {
                 let f = buffers.filtered(i);
                 (s.rest / n + s.albedo / n * f, f)
             } else {
-                (s.colour / n, mean_indirect(s))
+                (fixed::mean(&s.colour, u64::from(s.samples)), mean_indirect(s))
             };
             *p = FilmPixel {
                 colour,

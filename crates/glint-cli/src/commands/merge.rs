@@ -1,0 +1,44 @@
+//! `glint merge`: add the chunk files of a frame (`glint render --chunk I/N`) and finish the
+//! frame as the single-process render does (glint-render's `chunk` module checks and adds;
+//! `PathSums::resolve` is the single run's own last step), then write it like `render` does.
+
+use super::render::{output_kind, png_options_from, write_film};
+use crate::cli::MergeArgs;
+use anyhow::{Result, bail};
+use glint_render::Film;
+use glint_render::chunk::{self, Chunk};
+use std::time::Instant;
+
+pub fn run(args: &MergeArgs) -> Result<()> {
+    let start = Instant::now();
+    let kind = output_kind(&args.output)?;
+    // Never overwrite an input: the output must not be (a link to) one of them.
+    if let Ok(out) = std::fs::canonicalize(&args.output) {
+        for input in &args.inputs {
+            if std::fs::canonicalize(input).is_ok_and(|i| i == out) {
+                bail!("-o {} is one of the chunk files being merged: choose another output", args.output.display());
+            }
+        }
+    }
+    let mut chunks = Vec::with_capacity(args.inputs.len());
+    for input in &args.inputs {
+        chunks.push((input.clone(), Chunk::read(input)?));
+    }
+    let n = chunks.len();
+    let first = args.inputs[0].clone();
+    let (sums, settings) = chunk::merge(chunks)?;
+    let options = png_options_from(&settings, &first)?;
+    let mut film = Film::try_new(1, 1)?;
+    sums.resolve(&mut film)?;
+    let summary = format!(
+        "merged {n} chunk{} of a {}x{} path frame ({} {}) in {:.3} s",
+        if n == 1 { "" } else { "s" },
+        sums.width,
+        sums.height,
+        sums.units,
+        if sums.filtered { "passes" } else { "samples per pixel" },
+        start.elapsed().as_secs_f64()
+    );
+    write_film(&args.output, kind, &film, &options, &summary, args.quiet)?;
+    Ok(())
+}

@@ -1,0 +1,144 @@
+//! A path-traced frame's per-pixel sums (pipeline: passes → **sums** → film): what every pass
+//! adds to, in fixed point ([`crate::fixed`]), so that the sums of a frame's passes are the
+//! same whether one process traced them all or chunks of them were traced apart and added
+//! ([`PathSums::add`]); [`PathSums::resolve`] then makes the film. The single-process render
+//! goes through the same two steps, so a merged frame equals it bit for bit by construction.
+
+use crate::RenderError;
+use crate::film::{Film, FilmPixel};
+use crate::fixed::{self, Square};
+use glint_core::{Rgb, Vec3};
+
+/// One pixel's sums over the samples of the passes it holds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PixelSums {
+    pub colour: [i128; 3],
+    pub direct: [i128; 3],
+    /// Without a filter: each sample's demodulated indirect light; with one: each pass's
+    /// filtered indirect light at the pixel centre.
+    pub indirect: [i128; 3],
+    /// Without a filter: the squares of each sample's colour (the variance AOV).
+    pub square: [Square; 3],
+    pub covered: u32,
+    pub samples: u32,
+}
+
+impl PixelSums {
+    /// Add a sample's colour and its square (the variance's moments).
+    #[inline]
+    pub(crate) fn add_moments(&mut self, c: Rgb) {
+        fixed::add_rgb(&mut self.colour, c);
+        for (s, v) in self.square.iter_mut().zip(c.to_array()) {
+            s.add_square(v);
+        }
+    }
+
+    fn add(&mut self, o: &PixelSums) {
+        for k in 0..3 {
+            self.colour[k] += o.colour[k];
+            self.direct[k] += o.direct[k];
+            self.indirect[k] += o.indirect[k];
+            self.square[k].add(o.square[k]);
+        }
+        self.covered += o.covered;
+        self.samples += o.samples;
+    }
+
+    /// The sample variance of one sample's colour (Bessel-corrected; 0 below two samples).
+    fn variance(&self) -> Rgb {
+        if self.samples < 2 {
+            return Rgb::ZERO;
+        }
+        let n = f64::from(self.samples);
+        let v = |k: usize| {
+            let sum = fixed::value(self.colour[k]);
+            ((self.square[k].value() - sum * sum / n) / (n - 1.0)).max(0.0) as f32
+        };
+        Rgb::new(v(0), v(1), v(2))
+    }
+}
+
+/// The AOVs of a pixel's first sample (the frame's first guide ray, through the centre).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FirstSample {
+    pub normal: Vec3,
+    pub albedo: Rgb,
+    /// +inf where the first sample found no guide vertex.
+    pub depth: f32,
+}
+
+impl Default for FirstSample {
+    fn default() -> Self {
+        Self { normal: Vec3::ZERO, albedo: Rgb::ZERO, depth: f32::INFINITY }
+    }
+}
+
+/// What a share of a frame's passes adds up to (the whole frame, or a chunk of it).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PathSums {
+    pub width: u32,
+    pub height: u32,
+    /// A filter ran (the indirect sums are per pass, no squares).
+    pub filtered: bool,
+    /// Passes (filtered) or samples (unfiltered) these sums hold: the frame's units of work.
+    pub units: u64,
+    pub pixels: Vec<PixelSums>,
+    /// The first sample's AOVs, when these sums hold the frame's first unit.
+    pub first: Option<Vec<FirstSample>>,
+}
+
+impl PathSums {
+    /// Add `other`'s units (of the same frame: size and filter; other units). The first
+    /// sample's AOVs come from whichever holds them.
+    ///
+    /// # Errors
+    /// [`RenderError::InvalidSetting`] when the two are of different frames' shapes or both
+    /// hold the first unit.
+    pub fn add(&mut self, other: &PathSums) -> Result<(), RenderError> {
+        if (self.width, self.height, self.filtered) != (other.width, other.height, other.filtered) {
+            return Err(RenderError::InvalidSetting(format!(
+                "cannot add the sums of a {}x{} frame (filtered: {}) to a {}x{} one (filtered: {})",
+                other.width, other.height, other.filtered, self.width, self.height, self.filtered
+            )));
+        }
+        if self.first.is_some() && other.first.is_some() {
+            return Err(RenderError::InvalidSetting("two shares both hold the frame's first pass".into()));
+        }
+        for (a, b) in self.pixels.iter_mut().zip(&other.pixels) {
+            a.add(b);
+        }
+        self.units += other.units;
+        if self.first.is_none() {
+            self.first.clone_from(&other.first);
+        }
+        Ok(())
+    }
+
+    /// The film of these sums: means over each pixel's samples (the indirect light, filtered,
+    /// over the passes), the AOVs of the first sample.
+    ///
+    /// # Errors
+    /// [`RenderError::Memory`] when the film cannot be allocated.
+    pub fn resolve(&self, film: &mut Film) -> Result<(), RenderError> {
+        film.reset(self.width, self.height)?;
+        film.path_aovs = true;
+        film.variance = !self.filtered;
+        let none = FirstSample::default();
+        for (i, (p, a)) in film.pixels.iter_mut().zip(&self.pixels).enumerate() {
+            let n = u64::from(a.samples);
+            let first = self.first.as_ref().map_or(&none, |f| &f[i]);
+            *p = FilmPixel {
+                colour: fixed::mean(&a.colour, n),
+                normal: first.normal,
+                albedo: first.albedo,
+                depth: first.depth,
+                coverage: a.covered as f32 / n.max(1) as f32,
+                direct: fixed::mean(&a.direct, n),
+                indirect: fixed::mean(&a.indirect, if self.filtered { self.units } else { n }),
+                samples: a.samples as f32,
+                variance: if self.filtered { Rgb::ZERO } else { a.variance() },
+            };
+        }
+        Ok(())
+    }
+}
