@@ -204,7 +204,7 @@ mod tests {
         assert!(cloud.colours.is_none());
         assert!(cloud.validate().is_ok());
         let area: f32 = (0..8).map(|t| mesh.double_area(t)).sum::<f32>() * 0.5;
-        let expected = 2.0 * (area / (std::f32::consts::PI * 5000.0)).sqrt();
+        let expected = 4.0 * (area / (std::f32::consts::PI * 5000.0)).sqrt();
         assert!(cloud.radii.as_ref().unwrap().iter().all(|r| (r - expected).abs() < 1e-6 * expected));
 
         let table = AreaTable::new(&mesh).unwrap();
