@@ -274,6 +274,10 @@ fn malformed_gltf() {
     // subtract past zero (a panic with overflow checks, as tests build); refused first.
     let found = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/corpus/gltf/glb_length_zero.glb");
     assert_clean_error(&found, Loader::Any, ".glb version 60");
+    // Found by fuzzing: indices naming a float VEC3 accessor reached the `gltf` crate's
+    // `unreachable!` (caught, but a panic message on the terminal); the types are checked first.
+    let found = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/corpus/gltf/indices_of_floats.gltf");
+    assert_clean_error(&found, Loader::Any, "indices (accessors[0])");
     let short = d.write("short.glb", b"glTF\x02\0\0\0\x0c\0\0\0");
     assert_clean_error(&short, Loader::Any, "declares 12 bytes");
     #[cfg(unix)]

@@ -86,8 +86,21 @@ impl Baked {
         };
         let normal = primitive.get(&gltf::Semantic::Normals);
         let uv = primitive.get(&gltf::Semantic::TexCoords(uv_set));
-        for accessor in [Some(position), normal, uv, primitive.indices()].iter().flatten() {
+        for accessor in [Some(position.clone()), normal.clone(), uv.clone(), primitive.indices()].iter().flatten() {
             check_accessor(path, accessor)?;
+        }
+        // The gltf crate's readers assume the types the specification allows (it reaches
+        // `unreachable!` on others): check them here, naming the accessor.
+        use gltf::accessor::{DataType as T, Dimensions as D};
+        expect_kind(path, place, "POSITION", &position, D::Vec3, &[T::F32])?;
+        if let Some(n) = &normal {
+            expect_kind(path, place, "NORMAL", n, D::Vec3, &[T::F32])?;
+        }
+        if let Some(t) = &uv {
+            expect_kind(path, place, "TEXCOORD", t, D::Vec2, &[T::F32, T::U8, T::U16])?;
+        }
+        if let Some(i) = primitive.indices() {
+            expect_kind(path, place, "indices", &i, D::Scalar, &[T::U8, T::U16, T::U32])?;
         }
         let reader = primitive.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
         let Some(positions) = reader.read_positions() else {
@@ -306,4 +319,28 @@ pub(super) mod tests_support {
     pub fn fan(indices: &[u32]) -> Vec<[u32; 3]> {
         super::fan_triangles(indices)
     }
+}
+
+/// Refuse an accessor whose type the specification does not allow for `what`.
+fn expect_kind(
+    path: &Path,
+    place: &str,
+    what: &str,
+    accessor: &gltf::Accessor,
+    dimensions: gltf::accessor::Dimensions,
+    types: &[gltf::accessor::DataType],
+) -> Result<(), FormatError> {
+    if accessor.dimensions() == dimensions && types.contains(&accessor.data_type()) {
+        return Ok(());
+    }
+    Err(FormatError::malformed(
+        path,
+        format!("{place} {what} (accessors[{}])", accessor.index()),
+        format!(
+            "is {:?} of {:?}; glTF allows {dimensions:?} of {}",
+            accessor.dimensions(),
+            accessor.data_type(),
+            types.iter().map(|t| format!("{t:?}")).collect::<Vec<_>>().join(" or ")
+        ),
+    ))
 }
