@@ -310,17 +310,6 @@ fn flat_normals_where_missing(mesh: &mut Mesh, normals: &mut Vec<Vec3>, uvs: &mu
     }
 }
 
-#[cfg(test)]
-pub(super) mod tests_support {
-    pub fn strip(indices: &[u32]) -> Vec<[u32; 3]> {
-        super::strip_triangles(indices)
-    }
-
-    pub fn fan(indices: &[u32]) -> Vec<[u32; 3]> {
-        super::fan_triangles(indices)
-    }
-}
-
 /// Refuse an accessor whose type the specification does not allow for `what`.
 fn expect_kind(
     path: &Path,
@@ -343,4 +332,15 @@ fn expect_kind(
             types.iter().map(|t| format!("{t:?}")).collect::<Vec<_>>().join(" or ")
         ),
     ))
+}
+
+#[cfg(test)]
+pub(super) mod tests_support {
+    pub fn strip(indices: &[u32]) -> Vec<[u32; 3]> {
+        super::strip_triangles(indices)
+    }
+
+    pub fn fan(indices: &[u32]) -> Vec<[u32; 3]> {
+        super::fan_triangles(indices)
+    }
 }
