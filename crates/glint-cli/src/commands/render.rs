@@ -419,7 +419,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             let (stats, sums) =
                 renderer.render_share(&camera, &image, &frame_mode, share, &Hooks::with_progress(&advance))?;
             progress.finish();
-            let Mode::Path(path) = frame_mode else { unreachable!("checked above") };
+            let Mode::Path(path) = frame_mode else { bail!("--chunk splits a path frame only") };
             let units = share.units(path.units());
             let chunk = Chunk {
                 hash,
