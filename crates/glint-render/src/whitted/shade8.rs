@@ -330,7 +330,12 @@ pub(super) fn shade<I: Isa>(
     let cos_o = unit(ns.dot(wo));
     // Ray cones at the hit and after it (see `tracer.rs`).
     let width = b.width + b.spread * surf.t;
-    let curvature = F8::from_fn(|i| s.world.curvature(surf.object[i]));
+    let first = surf.object[lanes.bits().trailing_zeros() as usize % LANES];
+    let curvature = if (surf.object.eq(U8x::splat(first)) | !lanes) == M8::all() {
+        F8::splat(s.world.curvature(first))
+    } else {
+        F8::from_fn(|i| s.world.curvature(surf.object[i]))
+    };
     let curvature = F8::select(entering, curvature, -curvature);
     let reflected_spread = (b.spread + F8::splat(2.0) * curvature * width).abs();
     let deeper = depth < s.max_depth;
@@ -359,31 +364,40 @@ pub(super) fn shade<I: Isa>(
     // Schlick reflection.
     let w = b.weight * f;
     let push = schlick & w.max_element().gt(min);
-    // Dielectric weights (transparent lanes), with total internal reflection.
+    // Dielectric weights (transparent lanes), with total internal reflection; batches without
+    // a transparent lane (most) skip the refraction arithmetic.
     let transparent = plain & m.transparency.gt(F8::zero());
-    let eta_i = F8::select(entering, F8::one(), m.ior);
-    let eta_t = F8::select(entering, m.ior, F8::one());
-    let eta = eta_i / eta_t;
-    let i_dir = -wo;
-    let cos_i = -ns.dot(i_dir);
-    let k = F8::one() - eta * eta * (F8::one() - cos_i * cos_i);
-    let refracts = transparent & k.ge(F8::zero());
-    let refract_dir = (i_dir.scale(eta) + ns.scale(eta * cos_i - k.max(F8::zero()).sqrt())).normalize();
-    let fr = fresnel_dielectric(cos_o, eta_i, eta_t);
-    let fr = F8::select(refracts, fr, F8::one());
-    let fresnel = transparent & m.fresnel;
-    let k_refl = F8::select(
-        fresnel,
-        (m.reflectivity + m.transparency * fr).min(F8::one()),
-        F8::select(transparent.and_not(refracts), (m.reflectivity + m.transparency).min(F8::one()), m.reflectivity),
-    );
-    let k_refr =
-        F8::select(fresnel, m.transparency * (F8::one() - fr), F8::select(refracts, m.transparency, F8::zero()));
-    let w_refl = b.weight.scale(k_refl);
-    let push_refl = plain & k_refl.gt(F8::zero()) & w_refl.max_element().gt(min);
-    let w_refr = b.weight.scale(k_refr);
-    let push_refr = refracts & k_refr.gt(F8::zero()) & w_refr.max_element().gt(min);
-    let refr_spread = (b.spread * eta_i / eta_t - (eta_t - eta_i) / eta_t * curvature * width).abs();
+    let (w_refl, push_refl, refracted);
+    if transparent.any() {
+        let eta_i = F8::select(entering, F8::one(), m.ior);
+        let eta_t = F8::select(entering, m.ior, F8::one());
+        let eta = eta_i / eta_t;
+        let i_dir = -wo;
+        let cos_i = -ns.dot(i_dir);
+        let k = F8::one() - eta * eta * (F8::one() - cos_i * cos_i);
+        let refracts = transparent & k.ge(F8::zero());
+        let refract_dir = (i_dir.scale(eta) + ns.scale(eta * cos_i - k.max(F8::zero()).sqrt())).normalize();
+        let fr = fresnel_dielectric(cos_o, eta_i, eta_t);
+        let fr = F8::select(refracts, fr, F8::one());
+        let fresnel = transparent & m.fresnel;
+        let k_refl = F8::select(
+            fresnel,
+            (m.reflectivity + m.transparency * fr).min(F8::one()),
+            F8::select(transparent.and_not(refracts), (m.reflectivity + m.transparency).min(F8::one()), m.reflectivity),
+        );
+        let k_refr =
+            F8::select(fresnel, m.transparency * (F8::one() - fr), F8::select(refracts, m.transparency, F8::zero()));
+        w_refl = b.weight.scale(k_refl);
+        push_refl = plain & k_refl.gt(F8::zero()) & w_refl.max_element().gt(min);
+        let w_refr = b.weight.scale(k_refr);
+        let push_refr = refracts & k_refr.gt(F8::zero()) & w_refr.max_element().gt(min);
+        let refr_spread = (b.spread * eta_i / eta_t - (eta_t - eta_i) / eta_t * curvature * width).abs();
+        refracted = push_refr.any().then_some((push_refr, refract_dir, w_refr, refr_spread));
+    } else {
+        w_refl = b.weight.scale(m.reflectivity);
+        push_refl = plain & m.reflectivity.gt(F8::zero()) & w_refl.max_element().gt(min);
+        refracted = None;
+    }
 
     let reflected = push | push_refl;
     if reflected.any() {
@@ -391,9 +405,8 @@ pub(super) fn shade<I: Isa>(
         let weight = V8::select(push, w, w_refl);
         next.push_lanes(reflected, origin, reflect_dir, weight, width, reflected_spread, b.sample);
     }
-    if push_refr.any() {
-        let origin = origins.toward(refract_dir);
-        next.push_lanes(push_refr, origin, refract_dir, w_refr, width, refr_spread, b.sample);
+    if let Some((lanes, dir, weight, spread)) = refracted {
+        next.push_lanes(lanes, origins.toward(dir), dir, weight, width, spread, b.sample);
     }
     shadows
 }
@@ -465,9 +478,12 @@ fn local<I: Isa>(
             let base = r_dot_v.max(F8::zero());
             let fast = wants & m.shininess.gt(F8::zero()) & base.le(F8::one());
             spec = F8::select(fast, pow_unit(base, m.shininess) * m.specular, F8::zero());
-            for i in 0..LANES {
-                if wants.lane(i) && !fast.lane(i) {
-                    spec[i] = base[i].powf(m.shininess[i]) * m.specular[i];
+            let slow = wants.and_not(fast);
+            if slow.any() {
+                for i in 0..LANES {
+                    if slow.lane(i) {
+                        spec[i] = base[i].powf(m.shininess[i]) * m.specular[i];
+                    }
                 }
             }
         }

@@ -95,11 +95,12 @@ fn box8<I: Isa>(rays: &Rays8<I>, inv: &V8<I>, active: M8<I>, b: &Bounds3) -> M8<
 }
 
 impl World {
-    /// The closest hits of the active lanes of `rays`: lane `i` is
-    /// [`World::intersect`]`(&rays.ray(i))`.
-    #[must_use]
+    /// The closest hits of the active lanes of `rays` into `out`: lane `i` is
+    /// [`World::intersect`]`(&rays.ray(i))`. `out` is written in place (a caller keeps one
+    /// for its whole loop: returned by value, its 600 bytes were copied and cleared per batch);
+    /// its lanes outside `out.hit` keep whatever they held.
     #[inline(always)]
-    pub fn intersect_batch<I: Isa>(&self, rays: &Rays8<I>, active: M8<I>) -> Surfaces8<I> {
+    pub fn intersect_batch<I: Isa>(&self, rays: &Rays8<I>, active: M8<I>, out: &mut Surfaces8<I>) {
         let dd = rays.dir.dot(rays.dir);
         let mut best = rays.tmax;
         let mut kind = U8x::splat(NONE);
@@ -115,7 +116,8 @@ impl World {
             index = U8x::select(take, U8x::splat(inst), index);
         }
         if self.tlas_used && self.top_members.len() > FLAT_TOP_LIMIT {
-            return self.intersect_lanes(rays, active);
+            *out = self.intersect_lanes(rays, active);
+            return;
         }
         if let Some(merged) = &self.merged {
             let near = Rays8 { tmax: best, ..*rays };
@@ -162,7 +164,7 @@ impl World {
             kind = U8x::select(hit, U8x::splat(PLANE), kind);
             index = U8x::select(hit, U8x::splat(pi as u32), index);
         }
-        self.surfaces8(rays, best, kind, index, &tri)
+        self.surfaces8(rays, best, kind, index, &tri, out);
     }
 
     /// Lane by lane through the single-ray query (a top level too large to visit flat).
@@ -201,32 +203,33 @@ impl World {
         kind: U8x<I>,
         index: U8x<I>,
         tri: &Hits8<I>,
-    ) -> Surfaces8<I> {
-        let mut out = empty_surfaces();
+        out: &mut Surfaces8<I>,
+    ) {
         out.t = t;
         out.hit = !kind.eq(U8x::splat(NONE));
         let spheres = kind.eq(U8x::splat(SET_SPHERE));
         if spheres.any() {
-            self.sphere_surfaces(rays, spheres, index, &mut out);
+            self.sphere_surfaces(rays, spheres, index, out);
         }
         let planes = kind.eq(U8x::splat(PLANE));
         if planes.any() {
             for (pi, p) in self.planes.iter().enumerate() {
                 let lanes = planes & index.eq(U8x::splat(pi as u32));
                 if lanes.any() {
-                    self.plane_surfaces(rays, lanes, p, &mut out);
+                    self.plane_surfaces(rays, lanes, p, out);
                 }
             }
         }
         let top = kind.eq(U8x::splat(TOP));
-        for i in 0..LANES {
-            if top.lane(i) {
-                let inst = &self.instances[index[i] as usize];
-                let h = tri.hit(i);
-                out.set(i, &self.instance_hit(inst, &rays.ray(i), t[i], h.prim, h.u, h.v));
+        if top.any() {
+            for i in 0..LANES {
+                if top.lane(i) {
+                    let inst = &self.instances[index[i] as usize];
+                    let h = tri.hit(i);
+                    out.set(i, &self.instance_hit(inst, &rays.ray(i), t[i], h.prim, h.u, h.v));
+                }
             }
         }
-        out
     }
 
     /// Sphere-set hits across lanes: `World::instance_hit` of an untransformed sphere, lane
@@ -260,6 +263,7 @@ impl World {
         out.material = U8x::select(lanes, material, out.material);
         out.object = U8x::select(lanes, object, out.object);
         out.prim = U8x::select(lanes, U8x::splat(NO_PRIM), out.prim);
+        out.uv = [F8::select(lanes, F8::zero(), out.uv[0]), F8::select(lanes, F8::zero(), out.uv[1])];
         if textured {
             // Spherical uv only where a texture reads it (atan2 and acos are not free).
             for i in 0..LANES {
@@ -375,10 +379,13 @@ impl World {
         let mut out = V8::new(pass, pass, pass);
         // A transparent mesh (its triangles may carry different materials) needs its hits in
         // order: those lanes take the single-ray walk.
-        for i in 0..LANES {
-            if walk.lane(i) && !dark.lane(i) {
-                let t: Rgb = self.transmittance(&rays.ray(i));
-                out.set(i, t);
+        let walk = walk.and_not(dark);
+        if walk.any() {
+            for i in 0..LANES {
+                if walk.lane(i) {
+                    let t: Rgb = self.transmittance(&rays.ray(i));
+                    out.set(i, t);
+                }
             }
         }
         out
@@ -395,6 +402,13 @@ impl World {
 fn crossing_factor<I: Isa>(n: F8<I>, transparency: f32) -> F8<I> {
     let (one, two) = (F8::splat(transparency), F8::splat(transparency * transparency));
     F8::select(n.eq(F8::one()), one, F8::select(n.eq(F8::splat(2.0)), two, F8::one()))
+}
+
+impl<I: Isa> Default for Surfaces8<I> {
+    /// No lane hit.
+    fn default() -> Self {
+        empty_surfaces()
+    }
 }
 
 #[inline(always)]

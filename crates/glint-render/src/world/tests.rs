@@ -320,6 +320,8 @@ fn batches_equal_single_rays_with<I: glint_accel::lanes::Isa>() {
         seed ^= seed << 5;
         seed
     };
+    // One output kept across batches, as the tracer keeps it: stale lanes must not leak.
+    let mut batch = Surfaces8::default();
     for ty in 0..24 {
         for tx in 0..16 {
             let rays: [Ray; LANES] = std::array::from_fn(|i| {
@@ -327,7 +329,7 @@ fn batches_equal_single_rays_with<I: glint_accel::lanes::Isa>() {
                 if (tx + ty) % 3 == 0 { Ray::new(Vec3::new(0.1, 0.2, 0.1), r.dir) } else { r }
             });
             let active = M8::<I>::from_bits(next() & 0xff | 1);
-            let batch = world.intersect_batch(&Rays8::<I>::from_rays(&rays), active);
+            world.intersect_batch(&Rays8::<I>::from_rays(&rays), active, &mut batch);
             let mut shadows = [Ray::new(Vec3::ZERO, Vec3::Y); LANES];
             for i in 0..LANES {
                 let want = if active.lane(i) { world.intersect(&rays[i]) } else { None };
