@@ -19,7 +19,7 @@ use super::shade8::{LightLanes, MaterialTable, Shading, shade, sky8};
 use crate::film::{FilmPixel, MAX_SAMPLE_RADIANCE};
 use crate::settings::{ImageSettings, WhittedSettings};
 use crate::stats::{BandStats, RayCounts};
-use crate::world::World;
+use crate::world::{PointCones, World};
 use glint_accel::batch::Rays8;
 use glint_accel::lanes::{F8, Isa, LANES, M8, U8x, V8};
 use glint_core::random::SampleStream;
@@ -197,6 +197,8 @@ pub(super) struct Frame<'a> {
     pub seed: u64,
     /// The image's place in its film (pixel ids and camera positions are the film's).
     pub image: ImageSettings,
+    /// The sphere set seen from the eye, where every primary ray starts.
+    pub eye_cones: PointCones,
 }
 
 impl<'a> Frame<'a> {
@@ -220,7 +222,7 @@ impl<'a> Frame<'a> {
             shading: Shading {
                 world,
                 materials: MaterialTable::new(&scene.materials),
-                lights: scene.lights.iter().map(LightLanes::new).collect(),
+                lights: scene.lights.iter().map(|l| LightLanes::new(l, world)).collect(),
                 max_depth: settings.max_depth,
                 min_contribution: settings.min_contribution,
                 eye: rays.origin,
@@ -234,6 +236,7 @@ impl<'a> Frame<'a> {
             width: image.width as usize,
             seed: image.seed,
             image: *image,
+            eye_cones: world.point_cones(rays.origin),
         }
     }
 }
@@ -296,7 +299,9 @@ fn render_tile<I: Isa>(
             } else {
                 counts.secondary += traced;
             }
-            s.world.intersect_batch(&rays, active, &mut surf);
+            // Primary rays leave the eye: the eye's cones skip the spheres no lane meets.
+            let spheres = if depth == 0 { frame.eye_cones.candidates(rays.dir, active) } else { u64::MAX };
+            s.world.intersect_batch_among(&rays, active, spheres, &mut surf);
             let miss = active.and_not(surf.hit);
             if miss.any() {
                 let seen = lanes.weight * sky8(sky, rays.dir, lanes.spread, miss);

@@ -9,7 +9,7 @@
 //! contributions reach a sample in depth order instead of the scalar stack's order.
 
 use super::batch::{Lanes, Stream, TileSums};
-use crate::world::World;
+use crate::world::{PointCones, World};
 use glint_accel::batch::RayOrigins8;
 use glint_accel::batch::Rays8;
 use glint_accel::lanes::{F8, Isa, LANES, M8, U8x, V8, pow_unit};
@@ -138,6 +138,9 @@ pub(super) struct LightLanes {
     inverse_square: bool,
     cos_inner: f32,
     cos_outer: f32,
+    /// The sphere set seen from the light's position (point and spot lights): shadow
+    /// packets skip the spheres none of their rays can cross.
+    cones: Option<PointCones>,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -148,7 +151,7 @@ enum LightKind {
 }
 
 impl LightLanes {
-    pub(super) fn new(light: &Light) -> Self {
+    pub(super) fn new(light: &Light, world: &World) -> Self {
         let base = LightLanes {
             kind: LightKind::Point,
             position: Vec3::ZERO,
@@ -158,6 +161,7 @@ impl LightLanes {
             inverse_square: false,
             cos_inner: 1.0,
             cos_outer: 1.0,
+            cones: None,
         };
         match *light {
             Light::Point { position, colour, intensity, attenuation } => LightLanes {
@@ -165,6 +169,7 @@ impl LightLanes {
                 colour,
                 intensity,
                 inverse_square: attenuation == Attenuation::InverseSquare,
+                cones: Some(world.point_cones(position)),
                 ..base
             },
             Light::Directional { direction, colour, intensity } => {
@@ -180,6 +185,7 @@ impl LightLanes {
                     inverse_square: attenuation == Attenuation::InverseSquare,
                     cos_inner: inner_deg.to_radians().cos(),
                     cos_outer: outer_deg.to_radians().cos(),
+                    cones: Some(world.point_cones(position)),
                 }
             }
         }
@@ -464,7 +470,9 @@ fn local<I: Isa>(
         let dir = V8::select(finite, V8::new(to_target.x / dist, to_target.y / dist, to_target.z / dist), wi);
         let tmax = F8::select(finite, dist, F8::splat(f32::INFINITY));
         let shadow = Rays8 { origin, dir, tmin: F8::zero(), tmax };
-        let vis = world.transmittance_batch(&shadow, seen);
+        // Toward a point, every shadow segment lies on a ray leaving the light along −dir.
+        let spheres = light.cones.as_ref().map_or(u64::MAX, |c| c.candidates(-dir, seen));
+        let vis = world.transmittance_batch_among(&shadow, seen, spheres);
         let visible = seen & !(vis.x.eq(F8::zero()) & vis.y.eq(F8::zero()) & vis.z.eq(F8::zero()));
         if visible.none() {
             continue;

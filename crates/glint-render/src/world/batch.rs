@@ -101,13 +101,25 @@ impl World {
     /// its lanes outside `out.hit` keep whatever they held.
     #[inline(always)]
     pub fn intersect_batch<I: Isa>(&self, rays: &Rays8<I>, active: M8<I>, out: &mut Surfaces8<I>) {
+        self.intersect_batch_among(rays, active, u64::MAX, out);
+    }
+
+    /// [`Self::intersect_batch`] where only the sphere-set members whose bit is set in
+    /// `spheres` (bit k: the k-th member; members past 63 always) can be hit: the caller has
+    /// proven the others miss every lane ([`PointCones::candidates`] for rays leaving one
+    /// point). Skipping a member that no lane hits changes nothing.
+    #[inline(always)]
+    pub fn intersect_batch_among<I: Isa>(&self, rays: &Rays8<I>, active: M8<I>, spheres: u64, out: &mut Surfaces8<I>) {
         let dd = rays.dir.dot(rays.dir);
         let mut best = rays.tmax;
         let mut kind = U8x::splat(NONE);
         let mut index = U8x::splat(0);
         let mut tri = Hits8::none();
         // The sphere set: nearest, the lower index on ties (as `SphereSet::closest`).
-        for &inst in &self.sphere_instances {
+        for (k, &inst) in self.sphere_instances.iter().enumerate() {
+            if k < 64 && spheres >> k & 1 == 0 {
+                continue;
+            }
             let InstanceShape::Sphere { centre, radius } = self.instances[inst as usize].shape else { continue };
             let (hit, t) = sphere8(rays, dd, active, centre, radius);
             let take = hit & (t.lt(best) | kind.eq(U8x::splat(NONE)));
@@ -307,6 +319,31 @@ impl World {
     #[must_use]
     #[inline(always)]
     pub fn transmittance_batch<I: Isa>(&self, rays: &Rays8<I>, active: M8<I>) -> V8<I> {
+        self.transmittance_batch_among(rays, active, u64::MAX)
+    }
+
+    /// The cones of the sphere set seen from point `p` (a light), for
+    /// [`PointCones::candidates`].
+    #[must_use]
+    pub fn point_cones(&self, p: Vec3) -> PointCones {
+        let cones = self
+            .sphere_instances
+            .iter()
+            .map(|&inst| match self.instances[inst as usize].shape {
+                InstanceShape::Sphere { centre, radius } => PointCones::cone(p, centre, radius),
+                InstanceShape::Mesh(_) => (Vec3::ZERO, f32::NEG_INFINITY),
+            })
+            .collect();
+        PointCones { cones }
+    }
+
+    /// [`Self::transmittance_batch`] where only the sphere-set members whose bit is set in
+    /// `spheres` (bit k: the k-th member; members past 63 always) can be crossed: the caller
+    /// has proven the others miss every lane ([`PointCones::candidates`]). A skipped member
+    /// contributes exactly what its test would (a factor of one), so the result is the same.
+    #[must_use]
+    #[inline(always)]
+    pub fn transmittance_batch_among<I: Isa>(&self, rays: &Rays8<I>, active: M8<I>, spheres: u64) -> V8<I> {
         let dd = rays.dir.dot(rays.dir);
         let mut blocked = M8::none_set();
         // The product of the transparencies crossed (planes, the sphere set, the top level in
@@ -320,10 +357,13 @@ impl World {
                 pass = F8::select(hit, pass * F8::splat(self.material(p.material).transparency), pass);
             }
         }
-        for &inst in &self.sphere_instances {
+        for (k, &inst) in self.sphere_instances.iter().enumerate() {
             let live = active.and_not(blocked);
             if live.none() {
                 break;
+            }
+            if k < 64 && spheres >> k & 1 == 0 {
+                continue;
             }
             let i = &self.instances[inst as usize];
             let InstanceShape::Sphere { centre, radius } = i.shape else { continue };
@@ -394,6 +434,48 @@ impl World {
     /// Lane by lane through the single-ray query.
     fn transmittance_lanes<I: Isa>(&self, rays: &Rays8<I>, active: M8<I>) -> V8<I> {
         V8::from_fn(|i| if active.lane(i) { self.transmittance(&rays.ray(i)) } else { Vec3::ZERO })
+    }
+}
+
+/// The sphere set as cones seen from one point `p`: a ray that starts at `p` (or a segment
+/// whose far end is `p`) can meet sphere k only if its direction `u` away from `p` satisfies
+/// `u · axis_k ≥ cos_k`, `cos_k = √(D² − r²)/D` the cosine of the sphere's angular radius at
+/// distance D, lowered by a margin for rounding. Shadow rays toward a point light are such
+/// segments; a packet none of whose lanes is inside a cone skips that sphere. A point inside
+/// or near a sphere gives a cone that admits everything.
+#[derive(Clone, Debug, Default)]
+pub struct PointCones {
+    cones: Vec<(Vec3, f32)>,
+}
+
+impl PointCones {
+    /// Relative margin on the cone's cosine: far above the rounding of unit directions made
+    /// from offset origins (a few ulps), far below any cone that matters.
+    const MARGIN: f32 = 1e-4;
+
+    fn cone(p: Vec3, centre: Vec3, radius: f32) -> (Vec3, f32) {
+        let to = centre - p;
+        let d2 = to.length_squared();
+        let r2 = radius * radius;
+        // Near or inside the sphere (or non-finite input): always tested.
+        if !(d2.is_finite() && r2.is_finite()) || d2 <= r2 * 1.01 {
+            return (Vec3::ZERO, f32::NEG_INFINITY);
+        }
+        let d = d2.sqrt();
+        ((to / d), ((d2 - r2).sqrt() / d) - Self::MARGIN)
+    }
+
+    /// Bit k set where a lane's direction `from_p` (unit, pointing away from the point) may
+    /// fall inside sphere k's cone; bits past the last sphere are set.
+    #[inline(always)]
+    pub fn candidates<I: Isa>(&self, from_p: V8<I>, lanes: M8<I>) -> u64 {
+        let mut bits = !0u64;
+        for (k, &(axis, cos)) in self.cones.iter().enumerate().take(64) {
+            if cos > -1.0 && (from_p.dot(V8::splat(axis)).ge(F8::splat(cos)) & lanes).none() {
+                bits &= !(1 << k);
+            }
+        }
+        bits
     }
 }
 

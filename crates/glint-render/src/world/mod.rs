@@ -26,7 +26,7 @@ mod shadows;
 #[cfg(test)]
 mod tests;
 
-pub use batch::Surfaces8;
+pub use batch::{PointCones, Surfaces8};
 pub use emitters::EmissiveTriangle;
 pub use hit::{NO_PRIM, SurfaceHit};
 

@@ -320,6 +320,9 @@ fn batches_equal_single_rays_with<I: glint_accel::lanes::Isa>() {
         seed ^= seed << 5;
         seed
     };
+    let cones = world.point_cones(light);
+    let eye_cones = world.point_cones(cam.origin);
+    let (mut skipped, mut skipped_primary) = (0, 0);
     // One output kept across batches, as the tracer keeps it: stale lanes must not leak.
     let mut batch = Surfaces8::default();
     for ty in 0..24 {
@@ -329,10 +332,20 @@ fn batches_equal_single_rays_with<I: glint_accel::lanes::Isa>() {
                 if (tx + ty) % 3 == 0 { Ray::new(Vec3::new(0.1, 0.2, 0.1), r.dir) } else { r }
             });
             let active = M8::<I>::from_bits(next() & 0xff | 1);
-            world.intersect_batch(&Rays8::<I>::from_rays(&rays), active, &mut batch);
+            let rays8 = Rays8::<I>::from_rays(&rays);
+            if (tx + ty) % 3 == 0 {
+                world.intersect_batch(&rays8, active, &mut batch);
+            } else {
+                // Camera rays leave the eye: its cones may skip spheres (the same hits).
+                let spheres = eye_cones.candidates(rays8.dir, active);
+                skipped_primary += (!spheres & 0b111).count_ones();
+                world.intersect_batch_among(&rays8, active, spheres, &mut batch);
+            }
             let mut shadows = [Ray::new(Vec3::ZERO, Vec3::Y); LANES];
+            let mut to_light = 0u32;
             for i in 0..LANES {
                 let want = if active.lane(i) { world.intersect(&rays[i]) } else { None };
+                to_light |= u32::from(want.is_some()) << i;
                 assert_eq!(format!("{:?}", batch.lane(i)), format!("{want:?}"), "tile ({tx}, {ty}) lane {i}");
                 if let Some(h) = want {
                     shadows[i] = h.spawn_ray_to(light);
@@ -350,9 +363,21 @@ fn batches_equal_single_rays_with<I: glint_accel::lanes::Isa>() {
                 );
                 partial += (want.x > 0.0 && want.x < 1.0) as usize;
             }
+            // The light's cones may skip spheres for the lanes aimed at it: same light passed.
+            let shadow8 = Rays8::<I>::from_rays(&shadows);
+            let to_light = M8::<I>::from_bits(to_light) & active;
+            let spheres = cones.candidates(-shadow8.dir, to_light);
+            skipped += (!spheres & 0b111).count_ones();
+            let among = world.transmittance_batch_among(&shadow8, to_light, spheres);
+            for i in (0..LANES).filter(|&i| to_light.lane(i)) {
+                let want = world.transmittance(&shadows[i]).to_array().map(f32::to_bits);
+                assert_eq!(among.lane(i).to_array().map(f32::to_bits), want, "culled shadow ({tx}, {ty}) lane {i}");
+            }
         }
     }
     assert!(hits > 1000 && kinds.len() >= 6 && partial > 20, "{hits} hits on {kinds:?}, {partial} partial shadows");
+    assert!(skipped > 500, "the light's cones skipped only {skipped} sphere tests");
+    assert!(skipped_primary > 200, "the eye's cones skipped only {skipped_primary} sphere tests");
 }
 
 /// Three meshes (one moved, one mirrored) and a transparent one: the merged tree answers what
@@ -530,4 +555,46 @@ fn mesh_attributes_are_read_at_the_hit() {
         let hit = world.intersect(&Ray::new(other + normal * 2.0, -normal)).expect("the quad");
         assert_eq!(world.mesh_attribute(&hit, "face_color"), Some(Rgb::splat(0.75)));
     }
+}
+
+/// A light's cones never drop a sphere that a ray leaving the light meets: directions aimed
+/// at and just around each sphere's silhouette (where rounding decides), including a light
+/// inside a sphere (its cone admits everything) and one right at a surface.
+#[test]
+fn point_cones_keep_every_sphere_a_ray_meets() {
+    use glint_accel::batch::Rays8;
+    use glint_accel::lanes::{LANES, M8, Sse};
+    let world = World::new(batch_scene());
+    let mut seed = 7u32;
+    let mut rnd = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 17;
+        seed ^= seed << 5;
+        seed as f32 / u32::MAX as f32
+    };
+    let spheres = [(Vec3::new(1.2, 0.0, 0.5), 0.4f32), (Vec3::new(-1.2, 0.2, 0.0), 0.3)];
+    let lights =
+        [Vec3::new(2.0, 5.0, 4.0), Vec3::new(-30.0, 0.1, 2.0), Vec3::new(1.3, 0.1, 0.5), Vec3::new(1.2, 0.4, 0.5)];
+    let (mut met, mut dropped) = (0, 0);
+    for light in lights {
+        let cones = world.point_cones(light);
+        for (k, &(centre, radius)) in spheres.iter().enumerate() {
+            for _ in 0..2000 {
+                // A point on or near the silhouette disc, seen from the light.
+                let p = centre
+                    + Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5).normalize_or_zero()
+                        * radius
+                        * (0.98 + 0.04 * rnd());
+                let dir = (p - light).normalize();
+                let ray = Ray::new(light, dir);
+                let meets = glint_accel::primitives::intersect_sphere(&ray, centre, radius).is_some();
+                let from = Rays8::<Sse>::from_rays(&[ray; LANES]);
+                let kept = cones.candidates(from.dir, M8::all()) >> k & 1 == 1;
+                assert!(kept || !meets, "light {light} sphere {k}: a meeting ray {dir} was culled");
+                met += usize::from(meets);
+                dropped += usize::from(!kept);
+            }
+        }
+    }
+    assert!(met > 1000 && dropped > 100, "{met} meeting rays, {dropped} culled");
 }
