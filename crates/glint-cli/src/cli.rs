@@ -161,6 +161,21 @@ pub struct RenderArgs {
     /// path tracer's time budget).
     #[arg(long = "scene-time", value_name = "SECONDS", allow_hyphen_values = true)]
     pub scene_time: Option<f32>,
+    /// Render frames A to B (inclusive) of the scene's animation, frame f at scene time f / fps,
+    /// each to -o with its number in place of %d or %0Nd (out_%04d.png); combines with
+    /// --chunk (one chunk file per frame). docs/cluster.md.
+    #[arg(long = "frame-range", value_name = "A..B", allow_hyphen_values = true)]
+    pub frame_range: Option<String>,
+    /// Every K-th frame of --frame-range.
+    #[arg(long = "frame-step", value_name = "K", default_value_t = 1, allow_negative_numbers = true, value_parser = unsigned::<u32>)]
+    pub frame_step: u32,
+    /// Frames per second of --frame-range.
+    #[arg(long, value_name = "F", default_value_t = 24.0, allow_hyphen_values = true)]
+    pub fps: f32,
+    /// Leave outputs that exist alone (resume an interrupted job array: an output file only
+    /// appears once complete, written to a temporary name and renamed).
+    #[arg(long = "skip-existing")]
+    pub skip_existing: bool,
     /// Maximum ray depth (reflection/refraction bounces).
     #[arg(long = "max-depth", allow_negative_numbers = true, value_parser = unsigned::<u32>)]
     pub max_depth: Option<u32>,

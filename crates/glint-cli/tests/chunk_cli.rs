@@ -263,4 +263,29 @@ fn the_commands_of_the_cluster_docs_run() {
     assert!(merge.starts_with("glint merge"), "{merge}");
     sh(merge, &[]);
     same("final.png", "single.png");
+    // The animation block: frames 0, 12, 24, 36 (the second line skips them all), and frame 1
+    // in two chunks, merged.
+    std::fs::create_dir_all(d.join("frames")).unwrap();
+    let frames =
+        blocks.iter().find(|b| b.starts_with("sh\nglint render scenes/animated.toml")).expect("the frames block");
+    sh(frames.trim_start_matches("sh\n"), &[]);
+    let mut names: Vec<String> = std::fs::read_dir(d.join("frames"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "f_0000.png",
+            "f_0012.png",
+            "f_0024.png",
+            "f_0036.png",
+            "p_0000_0.exr",
+            "p_0000_1.exr",
+            "p_0001.png",
+            "p_0001_0.exr",
+            "p_0001_1.exr"
+        ]
+    );
 }

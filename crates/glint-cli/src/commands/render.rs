@@ -357,6 +357,85 @@ pub fn png_options_from(settings: &[(String, String)], from: &Path) -> Result<Pn
     Ok(PngOptions { exposure, tone_map: tonemap.into(), alpha })
 }
 
+/// One output of a render: the scene time to show (None: as loaded and overridden) and where
+/// the picture goes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameOut {
+    pub frame: Option<u32>,
+    pub time: Option<f32>,
+    pub output: std::path::PathBuf,
+}
+
+/// `--frame-range A..B`: the inclusive range (A ≤ B).
+pub fn parse_frame_range(text: &str) -> Result<(u32, u32)> {
+    let form = || anyhow::anyhow!("--frame-range {text:?}: expected A..B, two whole numbers with A <= B (e.g. 0..239)");
+    let (a, b) = text.split_once("..").ok_or_else(form)?;
+    let (a, b): (u32, u32) = (a.trim().parse().map_err(|_| form())?, b.trim().parse().map_err(|_| form())?);
+    if a > b {
+        return Err(form());
+    }
+    Ok((a, b))
+}
+
+/// `pattern` with frame `f` in place of its `%d` or `%0Nd` (N ≤ 9), or None when it has none.
+pub fn frame_path(pattern: &Path, f: u32) -> Result<Option<std::path::PathBuf>> {
+    let text = pattern.to_str().ok_or_else(|| anyhow::anyhow!("-o {}: not UTF-8", pattern.display()))?;
+    let Some(at) = text.find('%') else { return Ok(None) };
+    let rest = &text[at + 1..];
+    let (width, tail) = match rest.as_bytes() {
+        [b'd', ..] => (0, &rest[1..]),
+        [b'0', n @ b'1'..=b'9', b'd', ..] => (usize::from(n - b'0'), &rest[3..]),
+        _ => bail!("-o {text}: a frame number is written %d or %0Nd (e.g. out_%04d.png)"),
+    };
+    if tail.contains('%') {
+        bail!("-o {text}: one frame-number placeholder only");
+    }
+    Ok(Some(format!("{}{f:0width$}{tail}", &text[..at]).into()))
+}
+
+/// The outputs the command asks for: one, or one per frame of `--frame-range`.
+pub fn frame_outputs(args: &RenderArgs) -> Result<Vec<FrameOut>> {
+    let Some(range) = &args.frame_range else {
+        if frame_path(&args.output, 0).ok().flatten().is_some() {
+            bail!("-o {}: a frame-number pattern needs --frame-range A..B", args.output.display());
+        }
+        return Ok(vec![FrameOut { frame: None, time: None, output: args.output.clone() }]);
+    };
+    let (a, b) = parse_frame_range(range)?;
+    if args.frame_step == 0 {
+        bail!("--frame-step 0: the step is a whole number of frames, at least 1");
+    }
+    if !(args.fps.is_finite() && args.fps > 0.0) {
+        bail!("--fps {}: frames per second must be a positive number", args.fps);
+    }
+    if args.scene_time.is_some() {
+        bail!("--scene-time and --frame-range both set the scene's time: give one");
+    }
+    let frames: Vec<u32> = (a..=b).step_by(args.frame_step as usize).collect();
+    let mut outputs = Vec::with_capacity(frames.len());
+    for f in frames {
+        let output = match frame_path(&args.output, f)? {
+            Some(p) => p,
+            None if a == b => args.output.clone(),
+            None => bail!(
+                "--frame-range {range}: -o {} has no frame number, so every frame would overwrite it; write it as a pattern (e.g. out_%04d.png)",
+                args.output.display()
+            ),
+        };
+        outputs.push(FrameOut { frame: Some(f), time: Some(f as f32 / args.fps), output });
+    }
+    Ok(outputs)
+}
+
+/// With `--skip-existing`, whether `out` is already there (then said, unless quiet).
+fn skip(args: &RenderArgs, out: &FrameOut) -> bool {
+    let skip = args.skip_existing && out.output.exists();
+    if skip && !args.quiet {
+        eprintln!("glint: {} exists, skipped (--skip-existing)", out.output.display());
+    }
+    skip
+}
+
 pub fn run(args: &RenderArgs) -> Result<()> {
     let kind = output_kind(&args.output)?;
     if !args.exposure.is_finite() {
@@ -376,6 +455,14 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         }
         None => None,
     };
+    let outputs = frame_outputs(args)?;
+    for out in &outputs {
+        output_kind(&out.output)?;
+    }
+    if outputs.iter().all(|o| args.skip_existing && o.output.exists()) {
+        outputs.iter().for_each(|o| _ = skip(args, o));
+        return Ok(());
+    }
     let pool = input::thread_pool(args.threads)?;
     points::check_point_args(&args.points)?;
     let colour_by = args.points.colour_by;
@@ -411,30 +498,40 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             );
         }
         let settings = output_settings(args);
-        let hash = frame_hash(&scene, &image, &frame_mode, &settings);
+        let hash_before = frame_hash(&scene, &image, &frame_mode, &settings);
         return pool.install(|| -> Result<()> {
             let mut renderer = Renderer::new(scene)?;
-            let progress = LazyProgress::new(u64::from(image.height), !args.quiet);
-            let advance = |rows| progress.advance(rows);
-            let (stats, sums) =
-                renderer.render_share(&camera, &image, &frame_mode, share, &Hooks::with_progress(&advance))?;
-            progress.finish();
-            let Mode::Path(path) = frame_mode else { bail!("--chunk splits a path frame only") };
-            let units = share.units(path.units());
-            let chunk = Chunk {
-                hash,
-                version: env!("CARGO_PKG_VERSION").to_string(),
-                index: share.index,
-                count: share.count,
-                first_unit: units.start,
-                end_unit: units.end,
-                total_units: path.units(),
-                settings,
-                sums,
-            };
-            chunk.write(&args.output)?;
-            if !args.quiet {
-                eprintln!("glint: {} -> {}", stats.summary, args.output.display());
+            for out in outputs.iter().filter(|o| !skip(args, o)) {
+                // A frame's hash is of the scene at its time (a single frame keeps the loaded one's).
+                let hash = match out.time {
+                    Some(t) => {
+                        renderer.set_time(t);
+                        frame_hash(renderer.scene(), &image, &frame_mode, &settings)
+                    }
+                    None => hash_before.clone(),
+                };
+                let progress = LazyProgress::new(u64::from(image.height), !args.quiet);
+                let advance = |rows| progress.advance(rows);
+                let (stats, sums) =
+                    renderer.render_share(&camera, &image, &frame_mode, share, &Hooks::with_progress(&advance))?;
+                progress.finish();
+                let Mode::Path(path) = frame_mode else { bail!("--chunk splits a path frame only") };
+                let units = share.units(path.units());
+                let chunk = Chunk {
+                    hash,
+                    version: env!("CARGO_PKG_VERSION").to_string(),
+                    index: share.index,
+                    count: share.count,
+                    first_unit: units.start,
+                    end_unit: units.end,
+                    total_units: path.units(),
+                    settings: settings.clone(),
+                    sums,
+                };
+                chunk.write(&out.output)?;
+                if !args.quiet {
+                    eprintln!("glint: {} -> {}", stats.summary, out.output.display());
+                }
             }
             Ok(())
         });
@@ -444,17 +541,23 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             points::prepare_clouds(&mut scene, &args.points, args.quiet)?;
         }
         let mut renderer = Renderer::new(scene)?;
-        let progress = LazyProgress::new(u64::from(image.height), !args.quiet && !points_mode);
-        let advance = |rows| progress.advance(rows);
-        let stats = renderer.render(&camera, &image, &frame_mode, &Hooks::with_progress(&advance))?;
-        progress.finish();
-        write_output(args, kind, renderer.film(), &stats.summary)
+        for out in outputs.iter().filter(|o| !skip(args, o)) {
+            if let Some(t) = out.time {
+                renderer.set_time(t);
+            }
+            let progress = LazyProgress::new(u64::from(image.height), !args.quiet && !points_mode);
+            let advance = |rows| progress.advance(rows);
+            let stats = renderer.render(&camera, &image, &frame_mode, &Hooks::with_progress(&advance))?;
+            progress.finish();
+            write_output(args, &out.output, renderer.film(), &stats.summary)?;
+        }
+        Ok(())
     })
 }
 
-fn write_output(args: &RenderArgs, kind: OutputKind, film: &Film, summary: &str) -> Result<()> {
+fn write_output(args: &RenderArgs, output: &Path, film: &Film, summary: &str) -> Result<()> {
     let options = PngOptions { exposure: args.exposure, tone_map: args.tonemap.into(), alpha: args.alpha };
-    write_film(&args.output, kind, film, &options, summary, args.quiet)
+    write_film(output, output_kind(output)?, film, &options, summary, args.quiet)
 }
 
 /// Write a film to `output`: the beauty as PNG, or every AOV as EXR (atomically).
