@@ -277,3 +277,26 @@ fn the_commands_of_the_limits_docs_run() {
     }
     assert_eq!(ran, 2);
 }
+
+/// A texture whose decoded texels exceed the budget is refused from its header, before it is
+/// decoded, naming the image file and its size; with room it renders.
+#[test]
+fn a_texture_larger_than_the_budget_is_refused_before_decoding() {
+    let d = scratch("limits-texture");
+    let obj = "mtllib m.mtl\nv -1 -1 -3\nv 1 -1 -3\nv 0 1 -3\nvt 0 0\nvt 1 0\nvt 0.5 1\nusemtl t\nf 1/1 2/2 3/3\n";
+    std::fs::write(d.join("tex.obj"), obj).unwrap();
+    std::fs::write(d.join("m.mtl"), "newmtl t\nKd 1 1 1\nmap_Kd big.png\n").unwrap();
+    let n = 2048;
+    let img = glint_image::Image::from_rgb(n, n, &vec![[0.3, 0.6, 0.2]; (n * n) as usize]);
+    glint_image::write_png(&d.join("big.png"), &img, &glint_image::PngOptions::default()).unwrap();
+    // 2048² texels at 36 bytes each from decoder to texture: about 144 MiB.
+    let o =
+        glint(&["--max-memory", "64M", "render", "tex.obj", "--width", "32", "--height", "24", "-o", "out.png"], &d);
+    assert_refused(&o, &["big.png", "the texture image (2048 x 2048)", "memory budget of 64.00 MiB"]);
+    assert!(!d.join("out.png").exists());
+    let o = glint(
+        &["--max-memory", "400M", "render", "tex.obj", "--width", "32", "--height", "24", "-q", "-o", "out.png"],
+        &d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+}

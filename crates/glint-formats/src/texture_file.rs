@@ -33,7 +33,25 @@ pub(crate) fn read_image_file(path: &Path) -> Result<glint_image::Image, FormatE
             Err("not a PNG, JPEG, TGA, BMP, Radiance HDR or OpenEXR image".to_string())
         }
     })?;
+    check_budget(path, "image", &bytes)?;
     glint_image::decode_image(path, &bytes).map_err(|e| image_error(path, e))
+}
+
+/// Bytes a texel takes from decoding to the scene: the decoder's pixels (at most 8, RGBA16),
+/// the f32 planes of the decoded image (16, RGBA) and the texture's linear RGB (12).
+const BYTES_PER_TEXEL: u64 = 36;
+
+/// Refuses, before decoding, an image whose header claims more texels than the memory budget
+/// holds (`glint_core::memory`: --max-memory, RAM, `ulimit -v`, the cgroup). A header the
+/// reader cannot parse is left to the decoder, which says why. `place`: where in `path` the
+/// image is (a glTF's `images[i]`), or "image" for an image file.
+pub(crate) fn check_budget(path: &Path, place: &str, bytes: &[u8]) -> Result<(), FormatError> {
+    let reader = image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format();
+    let Some((w, h)) = reader.ok().and_then(|r| r.into_dimensions().ok()) else { return Ok(()) };
+    let texels = u64::from(w) * u64::from(h);
+    let what = || format!("the texture {place} ({w} x {h})");
+    glint_core::memory::check(what, texels.saturating_mul(BYTES_PER_TEXEL))
+        .map_err(|e| FormatError::limits(path, e.to_string()))
 }
 
 pub(crate) fn image_error(path: &Path, e: ImageError) -> FormatError {

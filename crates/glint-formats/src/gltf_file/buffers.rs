@@ -179,6 +179,7 @@ pub(super) fn read_image(
             "the JPEG is truncated: its image data ends without the end-of-image marker",
         ));
     }
+    texture_file::check_budget(path, &place, &bytes)?;
     let decoded = image::load_from_memory(&bytes)
         .map_err(|e| FormatError::malformed(path, place, format!("cannot decode image: {e}")))?;
     texture_file::check_size(path, decoded.width(), decoded.height())?;
