@@ -84,7 +84,12 @@ impl Film {
     /// [`MemoryError`] naming the film's size when the budget or the allocator refuses it.
     pub fn try_new(width: u32, height: u32) -> Result<Self, MemoryError> {
         let what = || format!("the film of a {width} x {height} image ({} bytes per pixel)", size_of::<FilmPixel>());
-        let pixels = memory::try_filled(what, width as usize * height as usize, FilmPixel::default())?;
+        let count = width as usize * height as usize;
+        let mut pixels = memory::try_with_capacity(what, count)?;
+        // Filled (and so first touched, page by page) on every thread: a single frame's film
+        // is 174 MB at 1920 × 1080, whose page faults on one thread cost about as much as the
+        // whole Whitted frame.
+        pixels.par_extend(rayon::iter::repeat_n(FilmPixel::default(), count));
         Ok(Self { width, height, pixels, path_aovs: false, variance: false })
     }
 
