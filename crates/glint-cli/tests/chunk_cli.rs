@@ -289,3 +289,32 @@ fn the_commands_of_the_cluster_docs_run() {
         ]
     );
 }
+
+/// docs/cluster.md, "A real Slurm on one machine": `scripts/slurm-local.sh` starts munged,
+/// slurmctld and slurmd (installing slurm-wlm and munge if missing; it needs root), renders the
+/// four chunks as a real 4-task job array, merges them and compares with the single render.
+/// Opt-in, as it installs packages and starts daemons: `GLINT_SLURM_TEST=1`. The section's
+/// commands are checked to be this test and the script either way.
+#[test]
+fn a_real_single_node_slurm_renders_the_chunks() {
+    let doc = std::fs::read_to_string(repo().join("docs/cluster.md")).unwrap();
+    let section = doc.split("## A real Slurm on one machine").nth(1).expect("the section on a real Slurm");
+    let block = section.split("```sh\n").nth(1).and_then(|s| s.split("```").next()).expect("its commands");
+    assert_eq!(
+        block.lines().collect::<Vec<_>>(),
+        ["GLINT_SLURM_TEST=1 cargo test -p glint-cli --test chunk_cli slurm", "scripts/slurm-local.sh"]
+    );
+    if std::env::var("GLINT_SLURM_TEST").as_deref() != Ok("1") {
+        eprintln!("skipped: set GLINT_SLURM_TEST=1 to start a real Slurm (needs root; installs slurm-wlm, munge)");
+        return;
+    }
+    let o = Command::new(repo().join("scripts/slurm-local.sh"))
+        .current_dir(repo())
+        .env("GLINT", env!("CARGO_BIN_EXE_glint"))
+        .output()
+        .expect("scripts/slurm-local.sh runs");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "scripts/slurm-local.sh failed:\n{out}\n{}", stderr(&o));
+    assert!(out.contains("identical"), "no \"identical\" in:\n{out}");
+    println!("{out}");
+}
