@@ -58,14 +58,7 @@ fn shell(script: &str, dir: &Path, display: Option<&str>) -> Command {
 /// clean exit.
 fn view_and_quit(script: &str, dir: &Path, x: &Xvfb) {
     let mut child = shell(script, dir, Some(&x.display)).stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap();
-    let xdotool = |args: &[&str]| {
-        let o = Command::new("xdotool")
-            .args(args)
-            .env("DISPLAY", &x.display)
-            .output()
-            .expect("xdotool runs (.ci/install-deps installs it)");
-        String::from_utf8_lossy(&o.stdout).trim().to_string()
-    };
+    let xdotool = |args: &[&str]| x.xdotool(args);
     let start = Instant::now();
     let mut window = String::new();
     while window.is_empty() {

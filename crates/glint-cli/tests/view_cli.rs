@@ -105,14 +105,7 @@ fn the_window_shows_the_scene() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let xdotool = |args: &[&str]| {
-        let o = Command::new("xdotool")
-            .args(args)
-            .env("DISPLAY", &x.display)
-            .output()
-            .expect("xdotool runs (.ci/install-deps installs it)");
-        String::from_utf8_lossy(&o.stdout).trim().to_string()
-    };
+    let xdotool = |args: &[&str]| x.xdotool(args);
     let wait_for = |what: &str, done: &mut dyn FnMut() -> bool| {
         let start = Instant::now();
         while !done() {

@@ -72,6 +72,18 @@ impl Xvfb {
     }
 }
 
+impl Xvfb {
+    /// `xdotool args` on this server (.ci/install-deps installs xdotool); its output, trimmed.
+    pub fn xdotool(&self, args: &[&str]) -> String {
+        let o = Command::new("xdotool")
+            .args(args)
+            .env("DISPLAY", &self.display)
+            .output()
+            .expect("xdotool runs (.ci/install-deps installs it)");
+        String::from_utf8_lossy(&o.stdout).trim().to_string()
+    }
+}
+
 impl Drop for Xvfb {
     fn drop(&mut self) {
         let _ = self.child.kill();

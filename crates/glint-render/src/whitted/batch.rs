@@ -402,11 +402,35 @@ fn resolve_tile(
 ) -> (u64, u64) {
     let per_pixel = (frame.samples_per_side * frame.samples_per_side) as usize;
     let pixels = tile_w * tile_h;
+    let (mut rejected, mut clamped) = (0, 0);
     if per_pixel == 1 {
-        return resolve_tile_1spp(frame, sums, x0, tile_w, tile_h, band);
+        // The real-time case without the loop over samples (which cost 135 instructions a
+        // pixel, a tenth of the frame): the same sums from zero, so the same bits.
+        for ty in 0..tile_h {
+            let k0 = ty * tile_w;
+            let row = &mut band[ty * frame.width + x0..][..tile_w];
+            let colours = &sums.colour[k0..k0 + tile_w];
+            let (hits, normals) = (&sums.hit[k0..k0 + tile_w], &sums.normal[k0..k0 + tile_w]);
+            let (albedos, depths) = (&sums.albedo[k0..k0 + tile_w], &sums.depth[k0..k0 + tile_w]);
+            for (tx, out) in row.iter_mut().enumerate() {
+                let colour = Rgb::ZERO + admit(colours[tx], &mut rejected, &mut clamped).unwrap_or(Rgb::ZERO);
+                *out = if hits[tx] {
+                    FilmPixel {
+                        colour,
+                        normal: (Vec3::ZERO + normals[tx]).normalize_or_zero(),
+                        albedo: Rgb::ZERO + albedos[tx],
+                        depth: 0.0 + depths[tx],
+                        coverage: 1.0,
+                        ..FilmPixel::default()
+                    }
+                } else {
+                    FilmPixel { colour, ..FilmPixel::default() }
+                };
+            }
+        }
+        return (rejected, clamped);
     }
     let inv_samples = 1.0 / per_pixel as f32;
-    let (mut rejected, mut clamped) = (0, 0);
     for ty in 0..tile_h {
         for tx in 0..tile_w {
             let p = ty * tile_w + tx;
@@ -414,13 +438,7 @@ fn resolve_tile(
                 (Rgb::ZERO, Vec3::ZERO, Rgb::ZERO, 0.0, 0u32);
             for s in 0..per_pixel {
                 let k = s * pixels + p;
-                let c = sums.colour[k];
-                if !c.is_finite() {
-                    rejected += 1;
-                } else if c.max_element() > MAX_SAMPLE_RADIANCE {
-                    colour += c.min(Rgb::splat(MAX_SAMPLE_RADIANCE));
-                    clamped += 1;
-                } else {
+                if let Some(c) = admit(sums.colour[k], &mut rejected, &mut clamped) {
                     colour += c;
                 }
                 if sums.hit[k] {
@@ -448,48 +466,17 @@ fn resolve_tile(
     (rejected, clamped)
 }
 
-/// [`resolve_tile`] at one sample per pixel (the real-time case), without the loop over
-/// samples: the same sums from zero, so the same bits (the general loop cost 135
-/// instructions a pixel, a tenth of the frame).
-fn resolve_tile_1spp(
-    frame: &Frame,
-    sums: &TileSums,
-    x0: usize,
-    tile_w: usize,
-    tile_h: usize,
-    band: &mut [FilmPixel],
-) -> (u64, u64) {
-    let (mut rejected, mut clamped) = (0, 0);
-    for ty in 0..tile_h {
-        let k0 = ty * tile_w;
-        let row = &mut band[ty * frame.width + x0..][..tile_w];
-        let colours = &sums.colour[k0..k0 + tile_w];
-        let (hits, normals) = (&sums.hit[k0..k0 + tile_w], &sums.normal[k0..k0 + tile_w]);
-        let (albedos, depths) = (&sums.albedo[k0..k0 + tile_w], &sums.depth[k0..k0 + tile_w]);
-        for (tx, out) in row.iter_mut().enumerate() {
-            let c = colours[tx];
-            let colour = if !c.is_finite() {
-                rejected += 1;
-                Rgb::ZERO
-            } else if c.max_element() > MAX_SAMPLE_RADIANCE {
-                clamped += 1;
-                Rgb::ZERO + c.min(Rgb::splat(MAX_SAMPLE_RADIANCE))
-            } else {
-                Rgb::ZERO + c
-            };
-            *out = if hits[tx] {
-                FilmPixel {
-                    colour,
-                    normal: (Vec3::ZERO + normals[tx]).normalize_or_zero(),
-                    albedo: Rgb::ZERO + albedos[tx],
-                    depth: 0.0 + depths[tx],
-                    coverage: 1.0,
-                    ..FilmPixel::default()
-                }
-            } else {
-                FilmPixel { colour, ..FilmPixel::default() }
-            };
-        }
+/// A sample's colour as the pixel takes it: None (counted in `rejected`) when not finite,
+/// clamped to [`MAX_SAMPLE_RADIANCE`] (counted in `clamped`) when brighter.
+#[inline(always)]
+fn admit(c: Rgb, rejected: &mut u64, clamped: &mut u64) -> Option<Rgb> {
+    if !c.is_finite() {
+        *rejected += 1;
+        None
+    } else if c.max_element() > MAX_SAMPLE_RADIANCE {
+        *clamped += 1;
+        Some(c.min(Rgb::splat(MAX_SAMPLE_RADIANCE)))
+    } else {
+        Some(c)
     }
-    (rejected, clamped)
 }
