@@ -85,25 +85,38 @@ impl Chunk {
     #[must_use]
     pub fn to_table(&self) -> ExrTable {
         let s = &self.sums;
-        let mut channels = Vec::new();
-        let words = |read: &dyn Fn(&PixelSums) -> u32| TableData::U32(s.pixels.iter().map(read).collect());
-        for (q, name) in QUANTITIES.iter().enumerate() {
-            for (c, ch) in RGB.iter().enumerate() {
-                for w in 0..4 {
-                    let data = words(&|p| fixed::words_i128(sum_of(p, q)[c])[w]);
-                    channels.push((format!("sum.{name}.{ch}.w{w}"), data));
-                }
+        // Every plane filled in one pass over the pixels (a pass per plane read the 256-byte
+        // pixel sums 50 times: a tenth of a 1024 × 768 chunk's CPU time).
+        let mut names = Vec::new();
+        for name in QUANTITIES {
+            for ch in RGB {
+                names.extend((0..4).map(|w| format!("sum.{name}.{ch}.w{w}")));
             }
         }
         if !s.filtered {
-            for (c, ch) in RGB.iter().enumerate() {
-                for w in 0..6 {
-                    channels.push((format!("sum.Square.{ch}.w{w}"), words(&|p| p.square[c].words()[w])));
-                }
+            for ch in RGB {
+                names.extend((0..6).map(|w| format!("sum.Square.{ch}.w{w}")));
             }
         }
-        channels.push(("count.samples".into(), words(&|p| p.samples)));
-        channels.push(("count.covered".into(), words(&|p| p.covered)));
+        names.extend(["count.samples".to_string(), "count.covered".to_string()]);
+        let mut planes: Vec<Vec<u32>> = names.iter().map(|_| Vec::with_capacity(s.pixels.len())).collect();
+        for p in &s.pixels {
+            let mut k = 0;
+            let mut push = |w: u32| {
+                planes[k].push(w);
+                k += 1;
+            };
+            for q in 0..QUANTITIES.len() {
+                sum_of(p, q).iter().flat_map(|&v| fixed::words_i128(v)).for_each(&mut push);
+            }
+            if !s.filtered {
+                p.square.iter().flat_map(|sq| sq.words()).for_each(&mut push);
+            }
+            push(p.samples);
+            push(p.covered);
+        }
+        let mut channels: Vec<(String, TableData)> =
+            names.into_iter().zip(planes).map(|(name, plane)| (name, TableData::U32(plane))).collect();
         if let Some(first) = &s.first {
             for (k, name) in FIRST.iter().enumerate() {
                 channels.push(((*name).into(), TableData::F32(first.iter().map(|f| first_value(f, k)).collect())));
