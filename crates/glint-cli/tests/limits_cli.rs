@@ -279,7 +279,8 @@ fn the_commands_of_the_limits_docs_run() {
 }
 
 /// A texture whose decoded texels exceed the budget is refused from its header, before it is
-/// decoded, naming the image file and its size; with room it renders.
+/// decoded, naming the image file (or the glTF and its image) and its size; with room it
+/// renders.
 #[test]
 fn a_texture_larger_than_the_budget_is_refused_before_decoding() {
     let d = scratch("limits-texture");
@@ -298,5 +299,25 @@ fn a_texture_larger_than_the_budget_is_refused_before_decoding() {
         &["--max-memory", "400M", "render", "tex.obj", "--width", "32", "--height", "24", "-q", "-o", "out.png"],
         &d,
     );
+    assert!(o.status.success(), "{}", stderr(&o));
+    // The same image as a glTF material's base colour: refused naming the glTF and images[0].
+    let floats: [f32; 15] = [-1.0, -1.0, -3.0, 1.0, -1.0, -3.0, 0.0, 1.0, -3.0, 0.0, 0.0, 1.0, 0.0, 0.5, 1.0];
+    std::fs::write(d.join("tri.bin"), floats.iter().flat_map(|f| f.to_le_bytes()).collect::<Vec<u8>>()).unwrap();
+    let gltf = r#"{"asset":{"version":"2.0"},"buffers":[{"uri":"tri.bin","byteLength":60}],
+      "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":24}],
+      "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[-1,-1,-3],"max":[1,1,-3]},
+                   {"bufferView":1,"componentType":5126,"count":3,"type":"VEC2"}],
+      "images":[{"uri":"big.png"}],"textures":[{"source":0}],
+      "materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}}],
+      "meshes":[{"primitives":[{"attributes":{"POSITION":0,"TEXCOORD_0":1},"material":0}]}],
+      "nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}],"scene":0}"#;
+    std::fs::write(d.join("tex.gltf"), gltf).unwrap();
+    let args = ["--max-memory", "64M", "render", "tex.gltf", "--width", "32", "--height", "24", "-o", "out.png"];
+    assert_refused(
+        &glint(&args, &d),
+        &["tex.gltf", "the texture images[0] (2048 x 2048)", "memory budget of 64.00 MiB"],
+    );
+    let args = ["--max-memory", "400M", "render", "tex.gltf", "--width", "32", "--height", "24", "-q", "-o", "g.png"];
+    let o = glint(&args, &d);
     assert!(o.status.success(), "{}", stderr(&o));
 }
