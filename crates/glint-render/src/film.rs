@@ -89,7 +89,7 @@ impl Film {
         // Filled (and so first touched, page by page) on every thread: a single frame's film
         // is 174 MB at 1920 × 1080, whose page faults on one thread cost about as much as the
         // whole Whitted frame.
-        pixels.par_extend(rayon::iter::repeat_n(FilmPixel::default(), count));
+        crate::first_touch::resize(&mut pixels, count, FilmPixel::default());
         Ok(Self { width, height, pixels, path_aovs: false, variance: false })
     }
 

@@ -14,6 +14,7 @@ mod bands;
 pub mod chunk;
 mod error;
 mod film;
+mod first_touch;
 pub mod fixed;
 mod frame;
 pub mod path;

@@ -28,6 +28,7 @@ use pyramid::Level;
 use pyramid::Texel;
 use view::View;
 
+use crate::first_touch;
 use crate::settings::ImageSettings;
 use crate::{Film, FilmPixel, RenderError};
 use glint_core::{Rgb, Vec2, Vec3};
@@ -158,11 +159,11 @@ impl PointFrame {
         let n = width as usize * height as usize;
         self.width = width;
         self.height = height;
-        self.depth.resize(n, f32::INFINITY);
-        self.normal.resize(n, Vec3::ZERO);
-        self.albedo.resize(n, Rgb::ZERO);
-        self.material.resize(n, u32::MAX);
-        self.colour.resize(n, Rgb::ZERO);
+        first_touch::resize(&mut self.depth, n, f32::INFINITY);
+        first_touch::resize(&mut self.normal, n, Vec3::ZERO);
+        first_touch::resize(&mut self.albedo, n, Rgb::ZERO);
+        first_touch::resize(&mut self.material, n, u32::MAX);
+        first_touch::resize(&mut self.colour, n, Rgb::ZERO);
     }
 
     /// Fraction of pixels covered by a surface.
@@ -257,7 +258,7 @@ impl PointRenderer {
 
         let n = w as usize * h as usize;
         if self.depth.len() != n {
-            self.depth = (0..n).map(|_| AtomicU64::new(EMPTY)).collect();
+            self.depth = (0..n).into_par_iter().map(|_| AtomicU64::new(EMPTY)).collect();
         } else {
             self.depth.par_chunks(1 << 14).for_each(|c| c.iter().for_each(|d| d.store(EMPTY, Ordering::Relaxed)));
         }
@@ -340,7 +341,7 @@ impl PointRenderer {
     fn gather(&mut self, width: usize) {
         let mut gathered = std::mem::take(&mut self.gathered);
         let empty = prepared::PointAttributes { radius: 0.0, colour: 0 };
-        gathered.resize(self.depth.len(), (0, empty));
+        first_touch::resize(&mut gathered, self.depth.len(), (0, empty));
         let (depth, points) = (&self.depth, &self.points);
         gathered.par_chunks_mut(width).zip(depth.par_chunks(width)).with_min_len(8).for_each(|(out, words)| {
             for (g, w) in out.iter_mut().zip(words) {

@@ -73,7 +73,7 @@ impl Level {
     pub fn resize(&mut self, width: u32, height: u32) {
         self.width = width;
         self.height = height;
-        self.texels.resize(width as usize * height as usize, Texel::INVALID);
+        crate::first_touch::resize(&mut self.texels, width as usize * height as usize, Texel::INVALID);
     }
 
     /// The texel at (x, y), or an invalid one outside the level.
