@@ -16,12 +16,15 @@
 //! instantiated as `sse` (4-wide, SSE2 is the x86-64 baseline: no detection needed) and `avx2`
 //! (8-wide, and 4-wide recompiled with VEX encoding; only after runtime detection); `packet`
 //! (8 coherent rays walking the 8-wide tree together, AVX2; `intersect8_isa` /
-//! `occluded8_isa` loop over single rays elsewhere); `dispatch` (the public queries, and which
+//! `occluded8_isa` loop over single rays elsewhere) and `frustum` (its closest-hit walk for
+//! rays from one origin: one interval test per node for the whole packet); `dispatch` (the public queries, and which
 //! kernel each instruction set runs). This module owns the layout and knows no ISA.
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
 mod dispatch;
+#[cfg(target_arch = "x86_64")]
+mod frustum;
 #[cfg(target_arch = "x86_64")]
 mod packet;
 mod scalar;

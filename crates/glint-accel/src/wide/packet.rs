@@ -11,9 +11,11 @@
 //! and equally near hits are resolved by the lowest primitive index ([`super::walk::closer`]), so
 //! the result does not depend on the visiting order: `out[i]` equals the single-ray kernel's
 //! answer for `rays[i]`. Rays are grouped by direction octant (the near/far planes are picked
-//! per octant, as in the single-ray kernel); a group of one ray takes the single-ray kernel.
+//! per octant, as in the single-ray kernel); a group of one ray, and a group whose directions
+//! spread wider than a cone ([`coherent`]), takes the single-ray kernel ray by ray.
 
 use super::dispatch::{Any, Closest};
+use super::frustum::{Frustum, closest_frustum};
 use super::sse::{TriRay4, packet_any, packet_closest};
 use super::walk::sort_keys;
 use super::{EMPTY_SLOT, LEAF, Stack, WideBvh, avx2, leaf_packets};
@@ -56,13 +58,35 @@ fn for_each_octant(rays: &[Ray; 8], mut f: impl FnMut(u32, u32)) {
     }
 }
 
+/// Cosine of the widest angle between the directions of a packet worth walking together (the
+/// first ray's and any other's). Incoherent packets (diffuse bounces, rays toward random points
+/// of an area light or the sky) share few nodes: walking them as a packet costs more than one
+/// single-ray walk each (Sponza path frame: 938 → 839 ms with 0.9, 900 with 0.5; BENCHMARKS
+/// §6.4), while primary rays of a pixel tile, shadow rays toward one point or parallel light and
+/// mirror reflections of those stay packets.
+const COHERENT_COS: f32 = 0.9;
+
+/// Whether every direction of `group` is within `acos(COHERENT_COS)` of the first one's (no
+/// square root: compared squared, with the sign of the dot product checked first).
+#[inline]
+fn coherent(rays: &[Ray; 8], group: u32) -> bool {
+    let d0 = rays[group.trailing_zeros() as usize % 8].dir;
+    let l0 = d0.length_squared() * (COHERENT_COS * COHERENT_COS);
+    Lanes(group).all(|i| {
+        let d = rays[i].dir;
+        let dot = d.dot(d0);
+        dot >= 0.0 && dot * dot >= l0 * d.length_squared()
+    })
+}
+
 /// Closest hits; `bvh` is non-empty and AVX2 + FMA were detected.
 pub(super) fn intersect8(bvh: &WideBvh<8>, rays: &[Ray; 8], out: &mut [Option<Hit>; 8]) {
     *out = [None; 8];
     for_each_octant(rays, |group, oct| {
-        if group & (group - 1) == 0 {
-            let i = group.trailing_zeros() as usize;
-            out[i] = avx2::run8::<Closest>(bvh, &rays[i]);
+        if group & (group - 1) == 0 || !coherent(rays, group) {
+            for i in Lanes(group) {
+                out[i] = avx2::run8::<Closest>(bvh, &rays[i]);
+            }
         } else {
             // SAFETY: AVX2 and FMA detected by the caller (see the top of the file).
             unsafe { closest_packet(bvh, rays, group, oct, out) }
@@ -74,9 +98,10 @@ pub(super) fn intersect8(bvh: &WideBvh<8>, rays: &[Ray; 8], out: &mut [Option<Hi
 pub(super) fn occluded8(bvh: &WideBvh<8>, rays: &[Ray; 8], out: &mut [bool; 8]) {
     *out = [false; 8];
     for_each_octant(rays, |group, oct| {
-        if group & (group - 1) == 0 {
-            let i = group.trailing_zeros() as usize;
-            out[i] = avx2::run8::<Any>(bvh, &rays[i]);
+        if group & (group - 1) == 0 || !coherent(rays, group) {
+            for i in Lanes(group) {
+                out[i] = avx2::run8::<Any>(bvh, &rays[i]);
+            }
         } else {
             // SAFETY: AVX2 and FMA detected by the caller (see the top of the file).
             let done = unsafe { any_packet(bvh, rays, group, oct) };
@@ -89,14 +114,14 @@ pub(super) fn occluded8(bvh: &WideBvh<8>, rays: &[Ray; 8], out: &mut [bool; 8]) 
 
 /// The packet's per-lane box-test constants; lanes outside the group get `tmax = -inf`, which
 /// fails every box test.
-struct PacketRay {
+pub(super) struct PacketRay {
     org: [__m256; 3],
-    inv: [__m256; 3],
+    pub(super) inv: [__m256; 3],
     tmin: __m256,
     /// Per axis: index into `WideNode::bounds` of the near and the far plane.
-    near: [usize; 3],
-    far: [usize; 3],
-    tmax: [f32; 8],
+    pub(super) near: [usize; 3],
+    pub(super) far: [usize; 3],
+    pub(super) tmax: [f32; 8],
 }
 
 impl PacketRay {
@@ -134,7 +159,7 @@ impl PacketRay {
 }
 
 #[inline(always)]
-fn load(a: &[f32; 8]) -> __m256 {
+pub(super) fn load(a: &[f32; 8]) -> __m256 {
     // SAFETY: 32 readable bytes, `loadu` needs no alignment; AVX detected (top of the file).
     unsafe { _mm256_loadu_ps(a.as_ptr()) }
 }
@@ -150,7 +175,7 @@ fn store(v: __m256) -> [f32; 8] {
 /// Slot `c` of `node` against every lane: hit mask (bit per ray) and entry distances. The same
 /// operations, in the same order, as `traverse::node_test` on one lane.
 #[inline(always)]
-fn box8(bounds: &[[f32; 8]; 6], c: usize, r: &PacketRay, tmax: __m256) -> (u32, __m256) {
+pub(super) fn box8(bounds: &[[f32; 8]; 6], c: usize, r: &PacketRay, tmax: __m256) -> (u32, __m256) {
     // SAFETY: AVX only; inlined into the `avx2,fma` kernels below (see the top of the file).
     unsafe {
         let slab = |a: usize, k: usize| _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(bounds[k][c]), r.org[a]), r.inv[a]);
@@ -183,7 +208,7 @@ fn masked_min(tn: __m256, mask: u32) -> f32 {
 }
 
 /// The indices of the set bits of a lane mask, lowest first: the rays it holds.
-struct Lanes(u32);
+pub(super) struct Lanes(pub(super) u32);
 
 impl Iterator for Lanes {
     type Item = usize;
@@ -201,19 +226,19 @@ impl Iterator for Lanes {
 
 /// The rays' constants of the triangle packet test, each made on its ray's first leaf: most
 /// rays of a packet that misses never get there.
-struct LeafRays<'a> {
+pub(super) struct LeafRays<'a> {
     rays: &'a [Ray; 8],
     tris: [Option<TriRay4>; 8],
 }
 
 impl<'a> LeafRays<'a> {
     #[inline(always)]
-    fn new(rays: &'a [Ray; 8]) -> Self {
+    pub(super) fn new(rays: &'a [Ray; 8]) -> Self {
         Self { rays, tris: std::array::from_fn(|_| None) }
     }
 
     #[inline(always)]
-    fn get(&mut self, i: usize) -> &TriRay4 {
+    pub(super) fn get(&mut self, i: usize) -> &TriRay4 {
         let ray = &self.rays[i];
         self.tris[i].get_or_insert_with(|| TriRay4::new(ray))
     }
@@ -231,6 +256,9 @@ struct Entry8 {
 #[target_feature(enable = "avx2,fma")]
 fn closest_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32, out: &mut [Option<Hit>; 8]) {
     let mut pr = PacketRay::new(rays, group, oct);
+    if let Some(f) = Frustum::new(&pr, rays, group) {
+        return closest_frustum(bvh, &mut pr, &f, rays, group, out);
+    }
     let mut leaf_rays = LeafRays::new(rays);
     let mut tmax = load(&pr.tmax);
     let mut stack = Stack::<Entry8>::new();
@@ -446,7 +474,8 @@ mod tests {
     #[test]
     fn packets_are_watertight() {
         // Each edge- or vertex-aimed ray travels in a lane of a packet of 8 rays aimed at the
-        // same target from nearby origins (a coherent packet); its lane must hit.
+        // same target from nearby origins (a coherent packet), or (every other shot) from its
+        // own origin toward nearby targets (the frustum walk of `frustum.rs`); its lane must hit.
         let ico = icosphere(4);
         let b = bvh8(&ico, 8);
         let isa = Isa::detect();
@@ -460,9 +489,11 @@ mod tests {
             let tile: [Ray; 8] = std::array::from_fn(|i| {
                 if i == lane {
                     *r
-                } else {
+                } else if k % 2 == 0 {
                     let o = r.origin + (rng.next_vec3() - 0.5) * 0.05;
                     Ray::new(o, target - o)
+                } else {
+                    Ray::new(r.origin, target + (rng.next_vec3() - 0.5) * 0.05 - r.origin)
                 }
             });
             let mut hits = [None; 8];
