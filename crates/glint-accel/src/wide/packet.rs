@@ -489,7 +489,7 @@ mod tests {
             let tile: [Ray; 8] = std::array::from_fn(|i| {
                 if i == lane {
                     *r
-                } else if k % 2 == 0 {
+                } else if k.is_multiple_of(2) {
                     let o = r.origin + (rng.next_vec3() - 0.5) * 0.05;
                     Ray::new(o, target - o)
                 } else {
