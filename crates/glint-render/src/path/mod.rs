@@ -442,7 +442,9 @@ pub fn render_path_sums(
     let start = Instant::now();
     let frame = Frame::new(world, camera, image, path);
     let what = || format!("the path accumulator of a {} x {} image", image.width, image.height);
-    let mut acc = glint_core::memory::try_filled(what, image.pixels(), PixelSums::default())?;
+    // Grown on every thread (its pages are faulted in on each, not serially on this one).
+    let mut acc = glint_core::memory::try_with_capacity(what, image.pixels())?;
+    crate::first_touch::resize(&mut acc, image.pixels(), PixelSums::default());
     let mut first: Option<Vec<GuidePixel>> = None;
     let mut stats = FrameStats::default();
     let (mut trace, mut filter) = (Duration::ZERO, Duration::ZERO);
@@ -539,7 +541,8 @@ fn trace_guides(
     let w = frame.width;
     let band_len = w * BAND_ROWS;
     let filtered = path.filtered();
-    let mut guides = vec![GuidePixel::default(); acc.len()];
+    let mut guides = Vec::new();
+    crate::first_touch::resize(&mut guides, acc.len(), GuidePixel::default());
     let parts: Vec<_> = guides.chunks_mut(band_len).zip(acc.chunks_mut(band_len)).collect();
     let totals = bands::run(parts, frame.schedule, hooks, |band, (gs, accs)| {
         let mut tracer = Tracer::new(world, frame, path.kernel);
@@ -600,7 +603,8 @@ fn filter_guides(
         filter,
         &mut buffers,
     )?;
-    Ok((0..guides.len()).map(|i| buffers.filtered(i)).collect())
+    // Collected on every thread (each faults in its own pages), as every per-frame buffer here.
+    Ok((0..guides.len()).into_par_iter().map(|i| buffers.filtered(i)).collect())
 }
 
 /// A pass's third step: the guide samples' colours with the filtered indirect light, and the
@@ -619,8 +623,8 @@ fn trace_lookups(
 ) -> Result<(), RenderError> {
     let w = frame.width;
     let h = guides.len() / w.max(1);
-    let normals: Vec<Vec3> = guides.iter().map(|g| g.sample.guide.map_or(Vec3::ZERO, |q| q.normal)).collect();
-    let depths: Vec<f32> = guides.iter().map(|g| g.sample.guide.map_or(f32::INFINITY, |q| q.depth)).collect();
+    let normals: Vec<Vec3> = guides.par_iter().map(|g| g.sample.guide.map_or(Vec3::ZERO, |q| q.normal)).collect();
+    let depths: Vec<f32> = guides.par_iter().map(|g| g.sample.guide.map_or(f32::INFINITY, |q| q.depth)).collect();
     let map = GuideMap { width: w, height: h, normal: &normals, depth: &depths };
     let parts: Vec<_> = acc.chunks_mut(w * BAND_ROWS).collect();
     let totals = bands::run(parts, frame.schedule, hooks, |band, accs| {
@@ -714,7 +718,7 @@ fn filter_indirect(
         + 1.0;
     let FilterBuffers { indirect: planes, normal, depth, out } = buffers;
     for v in planes.iter_mut().chain(normal.iter_mut()).chain([&mut *depth]).chain(out.iter_mut()) {
-        v.resize(n, 0.0);
+        crate::first_touch::resize(v, n, 0.0);
     }
     let rows = width * 8;
     let [p0, p1, p2] = &mut *planes;
