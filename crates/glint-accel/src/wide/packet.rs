@@ -62,7 +62,7 @@ fn for_each_octant(rays: &[Ray; 8], mut f: impl FnMut(u32, u32)) {
 /// first ray's and any other's). Incoherent packets (diffuse bounces, rays toward random points
 /// of an area light or the sky) share few nodes: walking them as a packet costs more than one
 /// single-ray walk each (Sponza path frame: 938 → 839 ms with 0.9, 900 with 0.5; BENCHMARKS
-/// §6.4), while primary rays of a pixel tile, shadow rays toward one point or parallel light and
+/// §1.1), while primary rays of a pixel tile, shadow rays toward one point or parallel light and
 /// mirror reflections of those stay packets.
 const COHERENT_COS: f32 = 0.9;
 
