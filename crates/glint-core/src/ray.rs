@@ -6,7 +6,11 @@ use glam::Vec3;
 ///
 /// `dir` need not be normalised: instance transforms keep `t` meaningful by transforming the
 /// direction without renormalising it.
+///
+/// `#[repr(C)]`: eight `f32` in this order (origin, direction, tmin, tmax), so that SIMD
+/// kernels can load 8 rays and transpose them into lanes.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct Ray {
     pub origin: Vec3,
     pub dir: Vec3,

@@ -20,7 +20,7 @@ use super::sse::{TriRay4, packet_any, packet_closest};
 use super::walk::sort_keys;
 use super::{EMPTY_SLOT, LEAF, Stack, WideBvh, avx2, leaf_packets};
 use crate::Hit;
-use crate::bvh2::{FAR_SCALE, ray_is_traceable};
+use crate::bvh2::FAR_SCALE;
 use glint_core::Ray;
 use std::arch::x86_64::*;
 
@@ -28,30 +28,141 @@ use std::arch::x86_64::*;
 // functions are only called from `intersect8` / `occluded8` after `Isa::detect()` found AVX2
 // and FMA; unaligned loads and stores touch `[f32; 8]` arrays, exactly 32 bytes.
 
-/// Direction octant: bit `a` set where the direction's axis-`a` component has its sign bit set.
-#[inline]
-fn octant(r: &Ray) -> u32 {
-    let d = r.dir;
-    d.x.is_sign_negative() as u32 | (d.y.is_sign_negative() as u32) << 1 | (d.z.is_sign_negative() as u32) << 2
+/// The 8 rays in lanes: `f[k]` holds field `k` of every ray (origin x, y, z, direction x, y,
+/// z, tmin, tmax): one 8 × 8 transpose of the rays as stored (`Ray` is `#[repr(C)]`, 8 floats).
+struct RayLanes {
+    f: [__m256; 8],
 }
 
-/// Splits the traceable rays into groups of one octant; calls `f(group mask, octant)`.
-#[inline]
-fn for_each_octant(rays: &[Ray; 8], mut f: impl FnMut(u32, u32)) {
-    let mut todo = 0u32;
-    for (i, r) in rays.iter().enumerate() {
-        todo |= (ray_is_traceable(r) as u32) << i;
-    }
-    while todo != 0 {
-        let oct = octant(&rays[todo.trailing_zeros() as usize]);
-        let mut group = 0;
-        let mut m = todo;
-        while m != 0 {
-            let i = m.trailing_zeros() as usize;
-            if octant(&rays[i]) == oct {
-                group |= 1 << i;
+const _: () = assert!(size_of::<Ray>() == 32 && align_of::<Ray>() == 4);
+
+impl RayLanes {
+    #[inline(always)]
+    fn new(rays: &[Ray; 8]) -> Self {
+        // SAFETY: AVX only; inlined into the `avx2,fma` entry points below (see the top of the
+        // file). Each load reads one `Ray`: 32 bytes of 8 f32 fields (`#[repr(C)]`, asserted
+        // above); `loadu` needs no alignment.
+        unsafe {
+            // (Loops and arrays, no closures: a closure here would not inherit the AVX features.)
+            let mut r = [_mm256_setzero_ps(); 8];
+            for (v, ray) in r.iter_mut().zip(rays) {
+                *v = _mm256_loadu_ps((&raw const *ray).cast::<f32>());
             }
-            m &= m - 1;
+            let t = [
+                _mm256_unpacklo_ps(r[0], r[1]),
+                _mm256_unpackhi_ps(r[0], r[1]),
+                _mm256_unpacklo_ps(r[2], r[3]),
+                _mm256_unpackhi_ps(r[2], r[3]),
+                _mm256_unpacklo_ps(r[4], r[5]),
+                _mm256_unpackhi_ps(r[4], r[5]),
+                _mm256_unpacklo_ps(r[6], r[7]),
+                _mm256_unpackhi_ps(r[6], r[7]),
+            ];
+            let u = [
+                _mm256_shuffle_ps::<0x44>(t[0], t[2]),
+                _mm256_shuffle_ps::<0xee>(t[0], t[2]),
+                _mm256_shuffle_ps::<0x44>(t[1], t[3]),
+                _mm256_shuffle_ps::<0xee>(t[1], t[3]),
+                _mm256_shuffle_ps::<0x44>(t[4], t[6]),
+                _mm256_shuffle_ps::<0xee>(t[4], t[6]),
+                _mm256_shuffle_ps::<0x44>(t[5], t[7]),
+                _mm256_shuffle_ps::<0xee>(t[5], t[7]),
+            ];
+            Self {
+                f: [
+                    _mm256_permute2f128_ps::<0x20>(u[0], u[4]),
+                    _mm256_permute2f128_ps::<0x20>(u[1], u[5]),
+                    _mm256_permute2f128_ps::<0x20>(u[2], u[6]),
+                    _mm256_permute2f128_ps::<0x20>(u[3], u[7]),
+                    _mm256_permute2f128_ps::<0x31>(u[0], u[4]),
+                    _mm256_permute2f128_ps::<0x31>(u[1], u[5]),
+                    _mm256_permute2f128_ps::<0x31>(u[2], u[6]),
+                    _mm256_permute2f128_ps::<0x31>(u[3], u[7]),
+                ],
+            }
+        }
+    }
+
+    /// The lanes whose ray can be traced (`bvh2::ray_is_traceable`, lane by lane): finite
+    /// origin and direction, a non-zero direction, `tmin <= tmax` (false for NaN).
+    #[inline(always)]
+    fn traceable(&self) -> u32 {
+        // SAFETY: AVX only; inlined into the `avx2,fma` entry points (see the top of the file).
+        unsafe {
+            let inf = _mm256_set1_ps(f32::INFINITY);
+            let sign = _mm256_set1_ps(-0.0);
+            let mut ok = _mm256_cmp_ps::<_CMP_LE_OQ>(self.f[6], self.f[7]);
+            for k in 0..6 {
+                ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_LT_OQ>(_mm256_andnot_ps(sign, self.f[k]), inf));
+            }
+            let zero = _mm256_setzero_ps();
+            let nonzero = _mm256_or_ps(
+                _mm256_or_ps(
+                    _mm256_cmp_ps::<_CMP_NEQ_OQ>(self.f[3], zero),
+                    _mm256_cmp_ps::<_CMP_NEQ_OQ>(self.f[4], zero),
+                ),
+                _mm256_cmp_ps::<_CMP_NEQ_OQ>(self.f[5], zero),
+            );
+            _mm256_movemask_ps(_mm256_and_ps(ok, nonzero)) as u32
+        }
+    }
+
+    /// Sign bits of the direction's axes, lane by lane.
+    #[inline(always)]
+    fn signs(&self) -> [u32; 3] {
+        // SAFETY: AVX only; inlined into the `avx2,fma` entry points (see the top of the file).
+        unsafe {
+            [
+                _mm256_movemask_ps(self.f[3]) as u32,
+                _mm256_movemask_ps(self.f[4]) as u32,
+                _mm256_movemask_ps(self.f[5]) as u32,
+            ]
+        }
+    }
+
+    /// Whether every direction of `group` is within `acos(COHERENT_COS)` of its first ray's
+    /// (no square root: compared squared, with the sign of the dot product checked first).
+    #[inline(always)]
+    fn coherent(&self, group: u32) -> bool {
+        // SAFETY: AVX2 only; inlined into the `avx2,fma` entry points (see the top of the file).
+        unsafe {
+            let first = _mm256_set1_epi32(group.trailing_zeros() as i32);
+            let (dx, dy, dz) = (self.f[3], self.f[4], self.f[5]);
+            let d0 = [
+                _mm256_permutevar8x32_ps(dx, first),
+                _mm256_permutevar8x32_ps(dy, first),
+                _mm256_permutevar8x32_ps(dz, first),
+            ];
+            let dot = _mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(dx, d0[0]), _mm256_mul_ps(dy, d0[1])),
+                _mm256_mul_ps(dz, d0[2]),
+            );
+            let len = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
+            let len0 = _mm256_permutevar8x32_ps(len, first);
+            let bound = _mm256_mul_ps(_mm256_mul_ps(len0, _mm256_set1_ps(COHERENT_COS * COHERENT_COS)), len);
+            let ok = _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GE_OQ>(dot, _mm256_setzero_ps()),
+                _mm256_cmp_ps::<_CMP_GE_OQ>(_mm256_mul_ps(dot, dot), bound),
+            );
+            _mm256_movemask_ps(ok) as u32 & group == group
+        }
+    }
+}
+
+/// Splits the traceable rays into groups of one direction octant (bit `a` of the octant set
+/// where axis `a` of the direction has its sign bit set); calls `f(group mask, octant)`.
+#[inline(always)]
+fn for_each_octant(lanes: &RayLanes, mut f: impl FnMut(u32, u32)) {
+    let mut todo = lanes.traceable();
+    let signs = lanes.signs();
+    while todo != 0 {
+        let i = todo.trailing_zeros();
+        let mut group = todo;
+        let mut oct = 0;
+        for (a, &s) in signs.iter().enumerate() {
+            let neg = s >> i & 1;
+            group &= if neg == 1 { s } else { !s };
+            oct |= neg << a;
         }
         todo &= !group;
         f(group, oct);
@@ -66,45 +177,44 @@ fn for_each_octant(rays: &[Ray; 8], mut f: impl FnMut(u32, u32)) {
 /// mirror reflections of those stay packets.
 const COHERENT_COS: f32 = 0.9;
 
-/// Whether every direction of `group` is within `acos(COHERENT_COS)` of the first one's (no
-/// square root: compared squared, with the sign of the dot product checked first).
-#[inline]
-fn coherent(rays: &[Ray; 8], group: u32) -> bool {
-    let d0 = rays[group.trailing_zeros() as usize % 8].dir;
-    let l0 = d0.length_squared() * (COHERENT_COS * COHERENT_COS);
-    Lanes(group).all(|i| {
-        let d = rays[i].dir;
-        let dot = d.dot(d0);
-        dot >= 0.0 && dot * dot >= l0 * d.length_squared()
-    })
-}
-
 /// Closest hits; `bvh` is non-empty and AVX2 + FMA were detected.
 pub(super) fn intersect8(bvh: &WideBvh<8>, rays: &[Ray; 8], out: &mut [Option<Hit>; 8]) {
+    // SAFETY: AVX2 and FMA detected by the caller (see the top of the file).
+    unsafe { intersect8_avx(bvh, rays, out) }
+}
+
+#[target_feature(enable = "avx2,fma")]
+fn intersect8_avx(bvh: &WideBvh<8>, rays: &[Ray; 8], out: &mut [Option<Hit>; 8]) {
     *out = [None; 8];
-    for_each_octant(rays, |group, oct| {
-        if group & (group - 1) == 0 || !coherent(rays, group) {
+    let lanes = RayLanes::new(rays);
+    for_each_octant(&lanes, |group, oct| {
+        if group & (group - 1) == 0 || !lanes.coherent(group) {
             for i in Lanes(group) {
                 out[i] = avx2::run8::<Closest>(bvh, &rays[i]);
             }
         } else {
-            // SAFETY: AVX2 and FMA detected by the caller (see the top of the file).
-            unsafe { closest_packet(bvh, rays, group, oct, out) }
+            closest_packet(bvh, rays, group, oct, out);
         }
     });
 }
 
 /// Any hits; `bvh` is non-empty and AVX2 + FMA were detected.
 pub(super) fn occluded8(bvh: &WideBvh<8>, rays: &[Ray; 8], out: &mut [bool; 8]) {
+    // SAFETY: AVX2 and FMA detected by the caller (see the top of the file).
+    unsafe { occluded8_avx(bvh, rays, out) }
+}
+
+#[target_feature(enable = "avx2,fma")]
+fn occluded8_avx(bvh: &WideBvh<8>, rays: &[Ray; 8], out: &mut [bool; 8]) {
     *out = [false; 8];
-    for_each_octant(rays, |group, oct| {
-        if group & (group - 1) == 0 || !coherent(rays, group) {
+    let lanes = RayLanes::new(rays);
+    for_each_octant(&lanes, |group, oct| {
+        if group & (group - 1) == 0 || !lanes.coherent(group) {
             for i in Lanes(group) {
                 out[i] = avx2::run8::<Any>(bvh, &rays[i]);
             }
         } else {
-            // SAFETY: AVX2 and FMA detected by the caller (see the top of the file).
-            let done = unsafe { any_packet(bvh, rays, group, oct) };
+            let done = any_packet(bvh, rays, group, oct);
             for (i, o) in out.iter_mut().enumerate() {
                 *o |= done >> i & 1 != 0;
             }
@@ -502,6 +612,45 @@ mod tests {
             b.occluded8_isa(isa, &tile, &mut occ);
             (hits[lane].is_some(), occ[lane])
         });
+    }
+
+    #[test]
+    fn ray_lanes_hold_each_field_of_each_ray() {
+        if Isa::detect() != Isa::Avx2 {
+            return;
+        }
+        let mut rng = Rng::new(9);
+        for k in 0..200 {
+            let mut rays: [Ray; 8] = std::array::from_fn(|_| {
+                Ray::segment(rng.next_vec3() - 0.5, rng.next_dir(), rng.next_f32(), 1.0 + rng.next_f32())
+            });
+            // Untraceable lanes: NaN, infinite, zero and negative-zero directions, tmin > tmax.
+            match k % 6 {
+                0 => rays[k % 8].origin.y = f32::NAN,
+                1 => rays[k % 8].dir.z = f32::INFINITY,
+                2 => rays[k % 8].dir = Vec3::ZERO,
+                3 => rays[k % 8].dir = Vec3::new(-0.0, 0.0, -0.0),
+                4 => rays[k % 8].tmin = 5.0,
+                _ => {}
+            }
+            let lanes = RayLanes::new(&rays);
+            let f: Vec<[f32; 8]> = lanes.f.iter().map(|&v| store(v)).collect();
+            let mut traceable = 0;
+            for (i, r) in rays.iter().enumerate() {
+                let want = [r.origin.x, r.origin.y, r.origin.z, r.dir.x, r.dir.y, r.dir.z, r.tmin, r.tmax];
+                for (field, &w) in want.iter().enumerate() {
+                    assert_eq!(f[field][i].to_bits(), w.to_bits(), "ray {i} field {field}");
+                }
+                traceable |= (crate::bvh2::ray_is_traceable(r) as u32) << i;
+            }
+            assert_eq!(lanes.traceable(), traceable, "case {k}");
+            let signs = lanes.signs();
+            for (a, s) in signs.iter().enumerate() {
+                for (i, r) in rays.iter().enumerate() {
+                    assert_eq!(s >> i & 1 == 1, r.dir[a].is_sign_negative());
+                }
+            }
+        }
     }
 
     #[test]
