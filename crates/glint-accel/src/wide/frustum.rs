@@ -47,31 +47,42 @@ pub(super) struct Frustum {
 }
 
 impl Frustum {
-    /// The frustum of `group`'s rays (one octant), or `None` when their origins differ or a
-    /// ray's reciprocal direction is not finite and non-zero.
+    /// The frustum of `group`'s rays (one octant), or `None` when their origins differ (bit
+    /// for bit) or a ray's reciprocal direction is not finite and non-zero; lane operations
+    /// on the packet's constants.
     #[inline(always)]
-    pub(super) fn new(pr: &PacketRay, rays: &[Ray; 8], group: u32) -> Option<Self> {
-        let inv = pr.inv.map(store);
-        let org = rays[group.trailing_zeros() as usize % 8].origin;
-        let mut imin = [f32::INFINITY; 3];
-        let mut imax = [f32::NEG_INFINITY; 3];
-        let mut tmin = f32::INFINITY;
-        for i in Lanes(group) {
-            let r = &rays[i];
-            if r.origin.to_array().map(f32::to_bits) != org.to_array().map(f32::to_bits) {
+    pub(super) fn new(pr: &PacketRay, group: u32) -> Option<Self> {
+        // SAFETY: AVX2 only; inlined into the `avx2,fma` kernel (see the top of the file).
+        unsafe {
+            let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+            let on =
+                _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(group as i32), bits), bits));
+            let first = _mm256_set1_epi32(group.trailing_zeros() as i32);
+            let inf = _mm256_set1_ps(f32::INFINITY);
+            let mut same = 0xff;
+            let mut usable = 0xff;
+            let mut org = [inf; 3];
+            let (mut imin, mut imax) = ([inf; 3], [inf; 3]);
+            for a in 0..3 {
+                // One origin: every lane's bits equal the first ray's.
+                let o = _mm256_permutevar8x32_ps(pr.org[a], first);
+                let eq = _mm256_cmpeq_epi32(_mm256_castps_si256(pr.org[a]), _mm256_castps_si256(o));
+                same &= _mm256_movemask_ps(_mm256_castsi256_ps(eq)) as u32;
+                org[a] = o;
+                // Reciprocals finite and non-zero (|inv| < inf, inv ≠ 0; NaN fails both).
+                let v = pr.inv[a];
+                let finite = _mm256_cmp_ps::<_CMP_LT_OQ>(_mm256_andnot_ps(_mm256_set1_ps(-0.0), v), inf);
+                let nonzero = _mm256_cmp_ps::<_CMP_NEQ_OQ>(v, _mm256_setzero_ps());
+                usable &= _mm256_movemask_ps(_mm256_and_ps(finite, nonzero)) as u32;
+                imin[a] = _mm256_set1_ps(lane_min(_mm256_blendv_ps(inf, v, on)));
+                imax[a] = _mm256_set1_ps(lane_max(_mm256_blendv_ps(_mm256_set1_ps(f32::NEG_INFINITY), v, on)));
+            }
+            if same & group != group || usable & group != group {
                 return None;
             }
-            for a in 0..3 {
-                let v = inv[a][i];
-                if !v.is_finite() || v == 0.0 {
-                    return None;
-                }
-                imin[a] = imin[a].min(v);
-                imax[a] = imax[a].max(v);
-            }
-            tmin = tmin.min(r.tmin);
+            let tmin = _mm256_set1_ps(lane_min(_mm256_blendv_ps(inf, pr.tmin, on)));
+            Some(Self { org, imin, imax, tmin })
         }
-        Some(Self { org: org.to_array().map(splat), imin: imin.map(splat), imax: imax.map(splat), tmin: splat(tmin) })
     }
 
     /// The 8 children of a node against the frustum: the mask of those some ray may meet
@@ -121,6 +132,18 @@ fn store(v: __m256) -> [f32; 8] {
     // SAFETY: 32 writable bytes, `storeu` needs no alignment; AVX detected (top of the file).
     unsafe { _mm256_storeu_ps(a.as_mut_ptr(), v) };
     a
+}
+
+/// The smallest lane.
+#[inline(always)]
+fn lane_min(v: __m256) -> f32 {
+    // SAFETY: AVX only; inlined into the `avx2,fma` kernels below (see the top of the file).
+    unsafe {
+        let x = _mm256_min_ps(v, _mm256_permute2f128_ps::<1>(v, v));
+        let x = _mm256_min_ps(x, _mm256_shuffle_ps::<0b0100_1110>(x, x));
+        let x = _mm256_min_ps(x, _mm256_shuffle_ps::<0b1011_0001>(x, x));
+        _mm256_cvtss_f32(x)
+    }
 }
 
 /// The largest lane (the packet's farthest `tmax`; finished lanes hold `-inf`).

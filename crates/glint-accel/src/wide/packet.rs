@@ -225,9 +225,9 @@ fn occluded8_avx(bvh: &WideBvh<8>, rays: &[Ray; 8], out: &mut [bool; 8]) {
 /// The packet's per-lane box-test constants; lanes outside the group get `tmax = -inf`, which
 /// fails every box test.
 pub(super) struct PacketRay {
-    org: [__m256; 3],
+    pub(super) org: [__m256; 3],
     pub(super) inv: [__m256; 3],
-    tmin: __m256,
+    pub(super) tmin: __m256,
     /// Per axis: index into `WideNode::bounds` of the near and the far plane.
     pub(super) near: [usize; 3],
     pub(super) far: [usize; 3],
@@ -366,7 +366,7 @@ struct Entry8 {
 #[target_feature(enable = "avx2,fma")]
 fn closest_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32, out: &mut [Option<Hit>; 8]) {
     let mut pr = PacketRay::new(rays, group, oct);
-    if let Some(f) = Frustum::new(&pr, rays, group) {
+    if let Some(f) = Frustum::new(&pr, group) {
         return closest_frustum(bvh, &mut pr, &f, rays, group, out);
     }
     let mut leaf_rays = LeafRays::new(rays);
@@ -612,6 +612,29 @@ mod tests {
             b.occluded8_isa(isa, &tile, &mut occ);
             (hits[lane].is_some(), occ[lane])
         });
+    }
+
+    #[test]
+    fn packets_of_parallel_rays_from_spread_origins_equal_single_rays() {
+        // Rays of one direction from origins far apart (shadow rays toward a directional
+        // light): a coherent packet with different origins, which must not take the frustum
+        // walk of one origin. Some tiles share one origin except for a single lane.
+        let m = displaced_sphere(20_000);
+        let b = bvh8(&m, 8);
+        let mut rng = Rng::new(17);
+        let tiles: Vec<[Ray; 8]> = (0..400)
+            .map(|k| {
+                let dir = rng.next_dir();
+                let back = -dir * 3.0;
+                let common = back + (rng.next_vec3() - 0.5) * 1.5;
+                let odd = k % 8;
+                std::array::from_fn(|i| {
+                    let origin = if k % 2 == 0 || i == odd { back + (rng.next_vec3() - 0.5) * 2.0 } else { common };
+                    Ray::new(origin, dir + (rng.next_vec3() - 0.5) * 0.01)
+                })
+            })
+            .collect();
+        check(&b, &tiles);
     }
 
     #[test]
