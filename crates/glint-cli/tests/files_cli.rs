@@ -36,7 +36,8 @@ fn assert_refused(o: &std::process::Output, input: &str, needle: &str) {
 /// `/dev/zero` as a model, scene or point cloud (and a FIFO) is refused before a byte is read:
 /// it used 4.2 GB before "out of memory" (issue 20, defect 7). Large regular files of the wrong
 /// kind are refused after their first bytes; one too large for the memory left is refused by a
-/// fallible reservation, not an abort.
+/// fallible reservation, not an abort; headers claiming absurd counts are refused from the
+/// header (issue 20, "resource limits as tests").
 #[cfg(unix)]
 #[test]
 fn devices_fifos_and_huge_files_are_refused_under_a_400_mb_cap() {
@@ -57,6 +58,20 @@ fn devices_fifos_and_huge_files_are_refused_under_a_400_mb_cap() {
     sparse("sparse.ply", b"");
     sparse("sparse.glb", b"");
     sparse("big.obj", &b"v 0 0 0\n".repeat(1024));
+    // Headers that claim absurd counts: 4·10⁹ PLY vertices over a 3-byte body, a glTF
+    // accessor of 4·10⁹ elements in a 6-byte buffer. Refused from the header, not by running
+    // out of the 400 MB.
+    let ply = "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n\
+               property float y\nproperty float z\nend_header\nabc";
+    std::fs::write(dir.join("absurd.ply"), ply).unwrap();
+    std::fs::write(
+        dir.join("absurd.gltf"),
+        r#"{"asset":{"version":"2.0"},"buffers":[{"byteLength":6,"uri":"data:application/octet-stream;base64,AAAAAAAA"}],
+"bufferViews":[{"buffer":0,"byteLength":6}],
+"accessors":[{"bufferView":0,"componentType":5126,"count":4000000000,"type":"VEC3","min":[0,0,0],"max":[1,1,1]}],
+"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}],"scene":0}"#,
+    )
+    .unwrap();
     // A scene naming a device as its mesh.
     std::fs::write(
         dir.join("scene.toml"),
@@ -76,6 +91,8 @@ fn devices_fifos_and_huge_files_are_refused_under_a_400_mb_cap() {
         ("sparse.ply", "not a PLY file"),
         ("sparse.glb", "not a glTF file"),
         ("big.obj", "more than the memory glint can reserve"),
+        ("absurd.ply", "claims 4000000000 rows"),
+        ("absurd.gltf", "4000000000 elements of 12 bytes"),
         ("scene.toml", "zero.obj: is a character device"),
     ];
     for (input, needle) in cases {
