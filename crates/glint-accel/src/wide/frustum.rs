@@ -22,7 +22,7 @@
 //! Measured (BENCHMARKS §1.1, one thread): Sponza's primary rays 7.5 → 10.0 Mrays/s with the
 //! frustum walk, 13.5 with the 8-ray leaves below; the dragon's 17.9 → 19.6 → 24.6.
 
-use super::packet::{Lanes, LeafRays, PacketRay, box8, load};
+use super::packet::{Lanes, LeafRays, PacketRay, box8, lane_mask, lane_max, lane_min, load, store};
 use super::sse::packet_closest;
 use super::walk::{closer, sort_keys};
 use super::{LEAF, PACKET, Stack, TriPacket, WideBvh, leaf_packets};
@@ -54,9 +54,7 @@ impl Frustum {
     pub(super) fn new(pr: &PacketRay, group: u32) -> Option<Self> {
         // SAFETY: AVX2 only; inlined into the `avx2,fma` kernel (see the top of the file).
         unsafe {
-            let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-            let on =
-                _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(group as i32), bits), bits));
+            let on = lane_mask(group);
             let first = _mm256_set1_epi32(group.trailing_zeros() as i32);
             let inf = _mm256_set1_ps(f32::INFINITY);
             let mut same = 0xff;
@@ -124,38 +122,6 @@ fn interval(b: __m256, o: __m256, lo: __m256, hi: __m256) -> (__m256, __m256) {
 fn splat(x: f32) -> __m256 {
     // SAFETY: AVX only; inlined into the `avx2,fma` kernels below (see the top of the file).
     unsafe { _mm256_set1_ps(x) }
-}
-
-#[inline(always)]
-fn store(v: __m256) -> [f32; 8] {
-    let mut a = [0.0f32; 8];
-    // SAFETY: 32 writable bytes, `storeu` needs no alignment; AVX detected (top of the file).
-    unsafe { _mm256_storeu_ps(a.as_mut_ptr(), v) };
-    a
-}
-
-/// The smallest lane.
-#[inline(always)]
-fn lane_min(v: __m256) -> f32 {
-    // SAFETY: AVX only; inlined into the `avx2,fma` kernels below (see the top of the file).
-    unsafe {
-        let x = _mm256_min_ps(v, _mm256_permute2f128_ps::<1>(v, v));
-        let x = _mm256_min_ps(x, _mm256_shuffle_ps::<0b0100_1110>(x, x));
-        let x = _mm256_min_ps(x, _mm256_shuffle_ps::<0b1011_0001>(x, x));
-        _mm256_cvtss_f32(x)
-    }
-}
-
-/// The largest lane (the packet's farthest `tmax`; finished lanes hold `-inf`).
-#[inline(always)]
-fn lane_max(v: __m256) -> f32 {
-    // SAFETY: AVX only; inlined into the `avx2,fma` kernels below (see the top of the file).
-    unsafe {
-        let x = _mm256_max_ps(v, _mm256_permute2f128_ps::<1>(v, v));
-        let x = _mm256_max_ps(x, _mm256_shuffle_ps::<0b0100_1110>(x, x));
-        let x = _mm256_max_ps(x, _mm256_shuffle_ps::<0b1011_0001>(x, x));
-        _mm256_cvtss_f32(x)
-    }
 }
 
 /// A node to visit: the child reference, where its box is stored (parent node and slot: a

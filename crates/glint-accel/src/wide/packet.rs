@@ -275,7 +275,7 @@ pub(super) fn load(a: &[f32; 8]) -> __m256 {
 }
 
 #[inline(always)]
-fn store(v: __m256) -> [f32; 8] {
+pub(super) fn store(v: __m256) -> [f32; 8] {
     let mut a = [0.0f32; 8];
     // SAFETY: 32 writable bytes, `storeu` needs no alignment; AVX detected (top of the file).
     unsafe { _mm256_storeu_ps(a.as_mut_ptr(), v) };
@@ -305,14 +305,40 @@ pub(super) fn box8(bounds: &[[f32; 8]; 6], c: usize, r: &PacketRay, tmax: __m256
 /// Smallest entry distance over the lanes of `mask` (the packet's ordering key).
 #[inline(always)]
 fn masked_min(tn: __m256, mask: u32) -> f32 {
-    // SAFETY: AVX2 only; inlined into the `avx2,fma` kernels below (see the top of the file).
+    // SAFETY: AVX only; inlined into the `avx2,fma` kernels below (see the top of the file).
+    lane_min(unsafe { _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), tn, lane_mask(mask)) })
+}
+
+/// All ones in the lanes whose bit is set in `mask`, zeros elsewhere.
+#[inline(always)]
+pub(super) fn lane_mask(mask: u32) -> __m256 {
+    // SAFETY: AVX2 only; inlined into the `avx2,fma` kernels (see the top of the file).
     unsafe {
         let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-        let on = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(mask as i32), bits), bits);
-        let x = _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), tn, _mm256_castsi256_ps(on));
-        let x = _mm256_min_ps(x, _mm256_permute2f128_ps::<1>(x, x));
+        _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(mask as i32), bits), bits))
+    }
+}
+
+/// The smallest lane.
+#[inline(always)]
+pub(super) fn lane_min(v: __m256) -> f32 {
+    // SAFETY: AVX only; inlined into the `avx2,fma` kernels (see the top of the file).
+    unsafe {
+        let x = _mm256_min_ps(v, _mm256_permute2f128_ps::<1>(v, v));
         let x = _mm256_min_ps(x, _mm256_shuffle_ps::<0b0100_1110>(x, x));
         let x = _mm256_min_ps(x, _mm256_shuffle_ps::<0b1011_0001>(x, x));
+        _mm256_cvtss_f32(x)
+    }
+}
+
+/// The largest lane.
+#[inline(always)]
+pub(super) fn lane_max(v: __m256) -> f32 {
+    // SAFETY: AVX only; inlined into the `avx2,fma` kernels (see the top of the file).
+    unsafe {
+        let x = _mm256_max_ps(v, _mm256_permute2f128_ps::<1>(v, v));
+        let x = _mm256_max_ps(x, _mm256_shuffle_ps::<0b0100_1110>(x, x));
+        let x = _mm256_max_ps(x, _mm256_shuffle_ps::<0b1011_0001>(x, x));
         _mm256_cvtss_f32(x)
     }
 }
