@@ -68,7 +68,7 @@ pub enum Command {
     /// Measure an image against a reference: MSE, relMSE, PSNR, SSIM, and a false-colour error
     /// image (docs/compare.md).
     Compare(CompareArgs),
-    /// Add the chunk files of a frame (`glint render --chunk I/N`) and finish it exactly as
+    /// Add the chunk files of a frame (`glint render --chunk I/N` or `--tile I/N`) and finish it exactly as
     /// one process would have: every setting comes from the chunks' headers (docs/cluster.md).
     Merge(MergeArgs),
     /// Filter the indirect light of a path-mode AOV EXR (docs/aovs.md; the paper's split: the
@@ -130,12 +130,19 @@ pub struct RenderArgs {
     /// a filter sees only the window. Overrides a Mitsuba film's crop.
     #[arg(long, value_name = "X0,Y0,X1,Y1")]
     pub crop: Option<String>,
-    /// Render chunk I (0-based) of N of a path frame's passes (its samples per pixel without a
-    /// filter) into a chunk file (-o part_I.exr) for `glint merge`; `auto/N` takes I from a
-    /// Slurm array (SLURM_ARRAY_TASK_ID − SLURM_ARRAY_TASK_MIN) or a Kubernetes Indexed Job
-    /// (JOB_COMPLETION_INDEX). docs/cluster.md.
+    /// Render chunk I (0-based) of N of a frame's passes (path mode with a filter) or samples
+    /// per pixel (path mode without one, Whitted) into a chunk file (-o part_I.exr) for
+    /// `glint merge`; `auto/N` takes I from a Slurm array (SLURM_ARRAY_TASK_ID −
+    /// SLURM_ARRAY_TASK_MIN) or a Kubernetes Indexed Job (JOB_COMPLETION_INDEX).
+    /// docs/cluster.md.
     #[arg(long, value_name = "I/N")]
     pub chunk: Option<String>,
+    /// Render tile I (0-based) of N of the frame (a grid of N tiles, as square as N allows)
+    /// with all its samples into a chunk file (-o part_I.exr) for `glint merge`; `auto/N` as
+    /// for --chunk. Whitted and path frames (with a filter, every pass also traces and filters
+    /// the whole frame's guide rays, one sample per pixel). docs/cluster.md.
+    #[arg(long, value_name = "I/N")]
+    pub tile: Option<String>,
     /// Samples per pixel. Whitted: a square number (N×N stratified supersampling): 1, 4, 9,
     /// 16, ...; path: any number (per pass with --time).
     #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<u32>)]

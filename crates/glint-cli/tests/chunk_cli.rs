@@ -1,7 +1,8 @@
-//! `glint render --chunk I/N` and `glint merge` (issue 18; docs/cluster.md): a path frame split
-//! into chunks of its passes and merged is the single-process render bit for bit (EXR with
-//! every AOV, and PNG), with and without the guided filter, for chunk counts that do and do
-//! not divide the passes; and every bad set of chunks is refused, naming the files, with
+//! `glint render --chunk I/N`, `--tile I/N` and `glint merge` (issue 18; docs/cluster.md): a
+//! path frame split into chunks of its passes or into tiles and merged is the single-process
+//! render bit for bit (EXR with every AOV, and PNG), with and without the guided filter, for
+//! chunk counts that do and do not divide the passes or the image; so is a Whitted frame split
+//! by samples or by tiles; and every bad set of chunks is refused, naming the files, with
 //! nothing overwritten.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)] // test code: a failure is the report
@@ -24,6 +25,12 @@ fn ok(args: &[&str], dir: &Path) {
 
 /// Render `frame` whole and in `n` chunks, merge, and compare the files byte for byte.
 fn assert_merge_is_single(frame: &[&str], n: u32, dir: &Path) {
+    assert_split_is_single(frame, "--chunk", n, dir);
+}
+
+/// Render `frame` whole and split `n` ways by `split` (`--chunk` or `--tile`), merge, and
+/// compare the files byte for byte.
+fn assert_split_is_single(frame: &[&str], split: &str, n: u32, dir: &Path) {
     let with = |extra: &[&str]| -> Vec<String> { frame.iter().chain(extra).map(|s| s.to_string()).collect() };
     let run = |extra: &[&str]| {
         let a = with(extra);
@@ -34,7 +41,7 @@ fn assert_merge_is_single(frame: &[&str], n: u32, dir: &Path) {
     let mut parts = Vec::new();
     for i in 0..n {
         let (chunk, part) = (format!("{i}/{n}"), format!("part_{i}.exr"));
-        run(&["-q", "--chunk", &chunk, "-o", &part]);
+        run(&["-q", split, &chunk, "-o", &part]);
         parts.push(part);
     }
     // Any order of the files.
@@ -47,7 +54,7 @@ fn assert_merge_is_single(frame: &[&str], n: u32, dir: &Path) {
     }
     for (single, merged) in [("single.exr", "merged.exr"), ("single.png", "merged.png")] {
         let (s, m) = (std::fs::read(dir.join(single)).unwrap(), std::fs::read(dir.join(merged)).unwrap());
-        assert!(s == m, "{frame:?} in {n} chunks: {merged} differs from {single}");
+        assert!(s == m, "{frame:?} split {n} ways by {split}: {merged} differs from {single}");
     }
     for p in parts {
         std::fs::remove_file(dir.join(p)).unwrap();
@@ -77,6 +84,61 @@ fn merged_chunks_are_the_single_render_bit_for_bit() {
     let window: Vec<&str> =
         [&guided[..], &["--crop", "5,3,37,21", "--exposure", "1.5", "--tonemap", "aces", "--seed", "9"]].concat();
     assert_merge_is_single(&window, 3, &d);
+}
+
+#[test]
+fn merged_tiles_and_whitted_chunks_are_the_single_render_bit_for_bit() {
+    let d = scratch("tile-merge");
+    let scene = cornell();
+    let size = ["--width", "40", "--height", "30"];
+    let guided: Vec<&str> =
+        [&["render", &scene, "--mode", "path", "--filter", "guided", "--spp", "3", "--passes", "2"][..], &size]
+            .concat();
+    for n in [1, 2, 4, 7] {
+        assert_split_is_single(&guided, "--tile", n, &d);
+    }
+    let plain: Vec<&str> =
+        [&["render", &scene, "--mode", "path", "--filter", "none", "--spp", "5"][..], &size].concat();
+    assert_split_is_single(&plain, "--tile", 3, &d);
+    // A-Trous reads further than the guided filter; a crop window split in tiles.
+    let atrous: Vec<&str> =
+        [&["render", &scene, "--mode", "path", "--filter", "atrous", "--spp", "2"][..], &size].concat();
+    assert_split_is_single(&atrous, "--tile", 4, &d);
+    let window: Vec<&str> = [&guided[..], &["--crop", "5,3,37,21", "--seed", "4"]].concat();
+    assert_split_is_single(&window, "--tile", 5, &d);
+    // Whitted: spheres and a mirror plane supersampled 3 x 3, split by samples (9 = 2 + 2 + 2
+    // + 3, and 1 per chunk) and by tiles; one sample per pixel in tiles; a mesh.
+    let bench = repo().join("scenes/whitted-bench.toml").display().to_string();
+    let whitted: Vec<&str> = [&["render", &bench, "--spp", "9"][..], &size].concat();
+    for n in [4, 9] {
+        assert_split_is_single(&whitted, "--chunk", n, &d);
+    }
+    assert_split_is_single(&whitted, "--tile", 7, &d);
+    let single: Vec<&str> = [&["render", &bench][..], &size].concat();
+    assert_split_is_single(&single, "--tile", 4, &d);
+    let bunny = repo().join("scenes/bunny-on-plane.toml").display().to_string();
+    let mesh: Vec<&str> = [&["render", &bunny, "--mode", "whitted", "--spp", "4"][..], &size].concat();
+    assert_split_is_single(&mesh, "--chunk", 3, &d);
+    assert_split_is_single(&mesh, "--tile", 3, &d);
+}
+
+#[test]
+fn bad_tile_sets_are_refused_naming_the_files() {
+    let d = scratch("tile-refusals");
+    let scene = cornell();
+    let base = ["render", scene.as_str(), "--mode", "path", "--filter", "none", "--spp", "2", "-q"];
+    let base: Vec<&str> = [&base[..], &["--width", "16", "--height", "12"]].concat();
+    for (split, n, prefix) in [("--tile", 3, "t"), ("--chunk", 2, "c")] {
+        for i in 0..n {
+            let (share, out) = (format!("{i}/{n}"), format!("{prefix}_{i}.exr"));
+            ok(&[&base[..], &[split, &share, "-o", &out]].concat(), &d);
+        }
+    }
+    assert_merge_refused(&d, &["t_0.exr", "t_2.exr"], "m.exr", &["chunk 1 of 3 missing"]);
+    assert_merge_refused(&d, &["t_0.exr", "t_1.exr", "t_1.exr"], "m.exr", &["t_1.exr", "both chunk 1/3"]);
+    // A tile among chunks of samples (of the same frame: the hash agrees).
+    assert_merge_refused(&d, &["c_0.exr", "t_1.exr"], "m.exr", &["c_0.exr", "t_1.exr", "split into samples vs tiles"]);
+    ok(&["merge", "-q", "t_2.exr", "t_0.exr", "t_1.exr", "-o", "m.png"], &d);
 }
 
 /// Writes the chunks of a small frame (`n` of them, `extra` options) as `prefix_I.exr`.
@@ -149,11 +211,17 @@ fn bad_chunk_options_are_refused() {
     std::fs::write(d.join("part.exr"), b"precious").unwrap();
     let scene = cornell();
     let base = ["render", scene.as_str(), "--width", "16", "--height", "12", "-q"];
-    let cases: [(&[&str], &str); 8] = [
+    let cases: [(&[&str], &str); 14] = [
         (&["--mode", "path", "--chunk", "4/4", "-o", "part.exr"], "chunk 4 of 4 does not exist"),
         (&["--mode", "path", "--chunk", "x", "-o", "part.exr"], "expected I/N"),
         (&["--mode", "path", "--chunk", "0/4", "-o", "out.png"], "give -o a .exr"),
-        (&["--mode", "whitted", "--chunk", "0/2", "-o", "part.exr"], "splits a path frame"),
+        (&["--mode", "whitted", "--spp", "4", "--chunk", "0/5", "-o", "part.exr"], "at most one chunk per sample"),
+        (&["--mode", "path", "--tile", "0/500", "-o", "part.exr"], "no grid of 500 tiles fits"),
+        (&["--mode", "path", "--tile", "2/2", "-o", "part.exr"], "tile 2 of 2 does not exist"),
+        (&["--mode", "whitted", "--tile", "0/2", "-o", "out.png"], "--tile writes a chunk file"),
+        (&["--mode", "path", "--tile", "0/2", "--chunk", "0/2", "-o", "part.exr"], "give one"),
+        (&["--mode", "path", "--passes", "4", "--time", "1", "--tile", "0/2", "-o", "part.exr"], "time budget"),
+        (&["--mode", "path", "--tile", "auto/2", "-o", "part.exr"], "--tile auto/2: neither SLURM_ARRAY_TASK_ID"),
         (
             &["--mode", "path", "--filter", "none", "--spp", "3", "--chunk", "0/4", "-o", "part.exr"],
             "at most one chunk per unit",
@@ -263,6 +331,13 @@ fn the_commands_of_the_cluster_docs_run() {
     assert!(merge.starts_with("glint merge"), "{merge}");
     sh(merge, &[]);
     same("final.png", "single.png");
+    // The tiles block: three path tiles merged are the whole render; two Whitted tiles merge.
+    std::fs::create_dir_all(d.join("tiles")).unwrap();
+    let tiles =
+        blocks.iter().find(|b| b.starts_with("sh\nglint render scenes/cornell-box.toml --mode path --passes 2"));
+    sh(tiles.expect("the tiles block").trim_start_matches("sh\n"), &[]);
+    same("tiled.png", "whole.png");
+    assert!(d.join("whitted.png").exists());
     // The animation block: frames 0, 12, 24, 36 (the second line skips them all), and frame 1
     // in two chunks, merged.
     std::fs::create_dir_all(d.join("frames")).unwrap();

@@ -44,6 +44,21 @@ impl<'a> Hooks<'a> {
         }
     }
 
+    /// Run `f` with hooks that report this frame's rows while each of `passes` passes
+    /// reports all of them: a row of the frame per `passes` rows reported.
+    pub(crate) fn over_passes<R>(&self, passes: u64, f: impl FnOnce(&Hooks) -> R) -> R {
+        let rows = std::sync::atomic::AtomicU64::new(0);
+        let passes = passes.max(1);
+        let report = |r: u64| {
+            let before = rows.fetch_add(r, Ordering::Relaxed);
+            let whole = (before + r) / passes - before / passes;
+            if whole > 0 {
+                self.report(whole);
+            }
+        };
+        f(&Hooks { progress: Some(&report), ..*self })
+    }
+
     pub(crate) fn cancelled(&self) -> bool {
         self.cancel.is_some_and(|c| c.load(Ordering::Relaxed))
     }

@@ -1,28 +1,40 @@
-//! Chunk files (pipeline: a share of a frame's passes → [`PathSums`] → **chunk file** → merge
-//! → the frame): an EXR table ([`glint_image::ExrTable`]) holding a share's per-pixel sums
-//! losslessly and, in its header, what the merge checks and needs.
+//! Chunk files (pipeline: a part of a frame — a share of its passes or samples, or a tile of
+//! its pixels — → [`Part`] → **chunk file** → merge → the frame): an EXR table
+//! ([`glint_image::ExrTable`]) holding a part losslessly and, in its header, what the merge
+//! checks and needs.
 //!
-//! Channels: every fixed-point sum ([`crate::fixed`]) as little-endian u32 words,
-//! `sum.<quantity>.<R|G|B>.w<k>` (colour, Direct, Indirect: 4 words; Square, without a filter:
-//! 6 words), the counts `count.samples` and `count.covered` (u32), and in the chunk holding the
-//! frame's first unit, the first sample's AOVs as f32 (`first.Albedo.R/G/B`, `first.Ns.X/Y/Z`,
-//! `first.Z`). Header: one text attribute `glint` of `name=value` lines: `glint.format`, `glint.version`, `glint.hash` (of
-//! everything that changes the picture, given by the caller), `glint.chunk` (`I/N`),
-//! `glint.units` (`first..end/total`), `glint.filtered`, and the caller's `glint.setting.*`
-//! (what the merge needs to finish the frame as the single run would: tone map, exposure).
+//! Channels of a path part (its region's pixels): every fixed-point sum ([`crate::fixed`]) as
+//! little-endian u32 words, `sum.<quantity>.<R|G|B>.w<k>` (colour, Direct, Indirect: 4 words;
+//! Square, without a filter: 6 words), the counts `count.samples` and `count.covered` (u32),
+//! and in the chunk holding the frame's first unit, the first sample's AOVs as f32
+//! (`first.Albedo.R/G/B`, `first.Ns.X/Y/Z`, `first.Z`). Channels of a Whitted part (f32):
+//! `whitted.<R|G|B>`, `whitted.N.<X|Y|Z>`, `whitted.Albedo.<R|G|B>`, `whitted.Z`,
+//! `whitted.coverage`: finished pixels (a part holding every sample) or its samples' raw
+//! records one below the other (the table is `samples × height` rows).
 //!
-//! [`merge`] checks a set of chunks against each other (one frame, every chunk once) and adds
-//! them; every refusal names the files.
+//! Header: one text attribute `glint` of `name=value` lines: `glint.format`, `glint.version`,
+//! `glint.hash` (of everything that changes the picture, given by the caller), `glint.kind`
+//! (`path` or `whitted`), `glint.split` (`samples` or `tiles`), `glint.chunk` (`I/N`),
+//! `glint.units` (`first..end/total`), `glint.frame` (`WxH`), `glint.region`
+//! (`x0,y0,w,h`), `glint.filtered`, and the caller's `glint.setting.*` (what the merge needs
+//! to finish the frame as the single run would: tone map, exposure).
+//!
+//! [`merge`] checks a set of chunks against each other (one frame, every chunk once, the
+//! shares or tiles covering it) and puts them together; every refusal names the files.
 
+use crate::film::{Film, FilmPixel};
 use crate::fixed::{self, Square};
+use crate::frame::{Part, WhittedPart};
 use crate::path::{FirstSample, PathSums, PixelSums};
+use crate::settings::Region;
+use crate::whitted::SampleSum;
 use glint_core::{Rgb, Vec3};
 use glint_image::{ExrTable, TableData};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
 /// What the `glint.format` field says: the layout this module reads and writes.
-pub const FORMAT: &str = "glint-chunk 1";
+pub const FORMAT: &str = "glint-chunk 2";
 /// The header attribute (type string) that holds the fields, one `name=value` line each.
 pub const HEADER: &str = "glint";
 
@@ -37,25 +49,61 @@ fn fail(path: &Path, message: impl fmt::Display) -> ChunkError {
     ChunkError { message: format!("{}: {message}", path.display()) }
 }
 
-/// One chunk: which share of which frame, and its sums.
+/// How a frame was split into chunks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Split {
+    /// Each chunk holds a contiguous share of the frame's units over every pixel.
+    Samples,
+    /// Each chunk holds every unit of one tile ([`Region::tile`]).
+    Tiles,
+}
+
+impl Split {
+    fn name(self) -> &'static str {
+        match self {
+            Split::Samples => "samples",
+            Split::Tiles => "tiles",
+        }
+    }
+}
+
+/// One chunk: which part of which frame, and the part.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Chunk {
     /// The hash of everything that changes the picture (hex; the caller computes it).
     pub hash: String,
     /// The glint version that rendered it.
     pub version: String,
+    pub split: Split,
     pub index: u32,
     pub count: u32,
     /// The frame's units this chunk holds, and the frame's total.
     pub first_unit: u64,
     pub end_unit: u64,
     pub total_units: u64,
+    /// The frame's size (the merged picture's).
+    pub frame: (u32, u32),
+    /// The frame's pixels this chunk holds (all of them for a share of samples).
+    pub region: Region,
     /// `glint.setting.<name>` attributes: the caller's settings for finishing the frame.
     pub settings: Vec<(String, String)>,
-    pub sums: PathSums,
+    pub part: Part,
 }
 
 const QUANTITIES: [&str; 3] = ["colour", "Direct", "Indirect"];
+const WHITTED: [&str; 11] = [
+    "whitted.R",
+    "whitted.G",
+    "whitted.B",
+    "whitted.N.X",
+    "whitted.N.Y",
+    "whitted.N.Z",
+    "whitted.Albedo.R",
+    "whitted.Albedo.G",
+    "whitted.Albedo.B",
+    "whitted.Z",
+    "whitted.coverage",
+];
 const RGB: [&str; 3] = ["R", "G", "B"];
 const FIRST: [&str; 7] =
     ["first.Albedo.R", "first.Albedo.G", "first.Albedo.B", "first.Ns.X", "first.Ns.Y", "first.Ns.Z", "first.Z"];
@@ -80,61 +128,48 @@ fn first_value(f: &FirstSample, k: usize) -> f32 {
     [f.albedo.x, f.albedo.y, f.albedo.z, f.normal.x, f.normal.y, f.normal.z, f.depth][k]
 }
 
+fn whitted_values(p: &FilmPixel) -> [f32; 11] {
+    let (c, n, a) = (p.colour, p.normal, p.albedo);
+    [c.x, c.y, c.z, n.x, n.y, n.z, a.x, a.y, a.z, p.depth, p.coverage]
+}
+
+/// Copy `src` (a `region.width`-wide block) into `region` of `dst` (`dst_width` wide).
+fn place<T: Copy>(dst: &mut [T], dst_width: usize, region: Region, src: &[T]) {
+    let (x0, w) = (region.x0 as usize, region.width as usize);
+    for (y, row) in src.chunks_exact(w.max(1)).enumerate() {
+        let at = (region.y0 as usize + y) * dst_width + x0;
+        dst[at..at + w].copy_from_slice(row);
+    }
+}
+
 impl Chunk {
     /// The EXR table of this chunk.
     #[must_use]
     pub fn to_table(&self) -> ExrTable {
-        let s = &self.sums;
-        // Every plane filled in one pass over the pixels (a pass per plane read the 256-byte
-        // pixel sums 50 times: a tenth of a 1024 × 768 chunk's CPU time).
-        let mut names = Vec::new();
-        for name in QUANTITIES {
-            for ch in RGB {
-                names.extend((0..4).map(|w| format!("sum.{name}.{ch}.w{w}")));
+        let (kind, filtered, (width, height), channels) = match &self.part {
+            Part::Path(sums) => ("path", sums.filtered, (sums.width, sums.height), path_channels(sums)),
+            Part::Whitted(w) => {
+                ("whitted", false, (w.width, w.pixels.len() as u32 / w.width.max(1)), whitted_channels(w))
             }
-        }
-        if !s.filtered {
-            for ch in RGB {
-                names.extend((0..6).map(|w| format!("sum.Square.{ch}.w{w}")));
-            }
-        }
-        names.extend(["count.samples".to_string(), "count.covered".to_string()]);
-        let mut planes: Vec<Vec<u32>> = names.iter().map(|_| Vec::with_capacity(s.pixels.len())).collect();
-        for p in &s.pixels {
-            let mut k = 0;
-            let mut push = |w: u32| {
-                planes[k].push(w);
-                k += 1;
-            };
-            for q in 0..QUANTITIES.len() {
-                sum_of(p, q).iter().flat_map(|&v| fixed::words_i128(v)).for_each(&mut push);
-            }
-            if !s.filtered {
-                p.square.iter().flat_map(|sq| sq.words()).for_each(&mut push);
-            }
-            push(p.samples);
-            push(p.covered);
-        }
-        let mut channels: Vec<(String, TableData)> =
-            names.into_iter().zip(planes).map(|(name, plane)| (name, TableData::U32(plane))).collect();
-        if let Some(first) = &s.first {
-            for (k, name) in FIRST.iter().enumerate() {
-                channels.push(((*name).into(), TableData::F32(first.iter().map(|f| first_value(f, k)).collect())));
-            }
-        }
+        };
+        let r = self.region;
         let mut attributes = vec![
             ("glint.format".to_string(), FORMAT.to_string()),
             ("glint.version".into(), self.version.clone()),
             ("glint.hash".into(), self.hash.clone()),
+            ("glint.kind".into(), kind.into()),
+            ("glint.split".into(), self.split.name().into()),
             ("glint.chunk".into(), format!("{}/{}", self.index, self.count)),
             ("glint.units".into(), format!("{}..{}/{}", self.first_unit, self.end_unit, self.total_units)),
-            ("glint.filtered".into(), s.filtered.to_string()),
+            ("glint.frame".into(), format!("{}x{}", self.frame.0, self.frame.1)),
+            ("glint.region".into(), format!("{},{},{},{}", r.x0, r.y0, r.width, r.height)),
+            ("glint.filtered".into(), filtered.to_string()),
         ];
         attributes.extend(self.settings.iter().map(|(k, v)| (format!("glint.setting.{k}"), v.clone())));
         // One header attribute holds them all, a `name=value` line each: the exr crate keeps
         // attributes in a hash map, whose order (and so the file's bytes) would vary by run.
         let text: String = attributes.iter().map(|(k, v)| format!("{k}={v}\n")).collect();
-        ExrTable { width: s.width, height: s.height, channels, attributes: vec![(HEADER.to_string(), text)] }
+        ExrTable { width, height, channels, attributes: vec![(HEADER.to_string(), text)] }
     }
 
     /// Write the chunk to `path` (temp file + rename).
@@ -149,7 +184,8 @@ impl Chunk {
     ///
     /// # Errors
     /// [`ChunkError`] naming the file: unreadable, truncated, not an EXR, an EXR that is not a
-    /// glint chunk (of this format), or a chunk with a channel missing or of the wrong type.
+    /// glint chunk (of this format), or a chunk whose header does not agree with itself or its
+    /// channels (one missing or of the wrong type or size).
     pub fn read(path: &Path) -> Result<Chunk, ChunkError> {
         let table = glint_image::read_exr_table(path).map_err(|e| ChunkError { message: e.to_string() })?;
         Self::from_table(path, &table)
@@ -170,12 +206,16 @@ impl Chunk {
         }
         let attr = |name: &str| field(name).ok_or_else(|| fail(path, format!("the header has no {name}")));
         let bad = |name: &str, v: &str| fail(path, format!("the header's {name} {v:?} cannot be read"));
-        let chunk = attr("glint.chunk")?;
-        let (index, count) = chunk
-            .split_once('/')
-            .and_then(|(i, n)| Some((i.parse::<u32>().ok()?, n.parse::<u32>().ok()?)))
-            .filter(|&(i, n)| i < n)
-            .ok_or_else(|| bad("glint.chunk", chunk))?;
+        let numbers = |name: &str, sep: char, n: usize| -> Result<Vec<u32>, ChunkError> {
+            let v = attr(name)?;
+            let parsed: Option<Vec<u32>> = v.split(sep).map(|x| x.parse().ok()).collect();
+            parsed.filter(|p| p.len() == n).ok_or_else(|| bad(name, v))
+        };
+        let chunk = numbers("glint.chunk", '/', 2)?;
+        let (index, count) = (chunk[0], chunk[1]);
+        if index >= count {
+            return Err(bad("glint.chunk", attr("glint.chunk")?));
+        }
         let units = attr("glint.units")?;
         let (first_unit, end_unit, total_units) = units
             .split_once("..")
@@ -190,54 +230,35 @@ impl Chunk {
             "false" => false,
             v => return Err(bad("glint.filtered", v)),
         };
-        let n = t.width as usize * t.height as usize;
-        let u32s = |name: &str| match t.channel(name) {
-            Some(TableData::U32(v)) if v.len() == n => Ok(v.as_slice()),
-            Some(_) => Err(fail(path, format!("channel {name} is not of 32-bit unsigned integers"))),
-            None => Err(fail(path, format!("channel {name} is missing"))),
+        let split = match attr("glint.split")? {
+            "samples" => Split::Samples,
+            "tiles" => Split::Tiles,
+            v => return Err(bad("glint.split", v)),
         };
-        let mut pixels = vec![PixelSums::default(); n];
-        for (q, name) in QUANTITIES.iter().enumerate() {
-            for (c, ch) in RGB.iter().enumerate() {
-                let w: Vec<&[u32]> =
-                    (0..4).map(|w| u32s(&format!("sum.{name}.{ch}.w{w}"))).collect::<Result<_, _>>()?;
-                for (i, p) in pixels.iter_mut().enumerate() {
-                    sum_of_mut(p, q)[c] = fixed::from_words_i128([w[0][i], w[1][i], w[2][i], w[3][i]]);
-                }
-            }
+        let frame = numbers("glint.frame", 'x', 2)?;
+        let frame = (frame[0], frame[1]);
+        let r = numbers("glint.region", ',', 4)?;
+        let region = Region { x0: r[0], y0: r[1], width: r[2], height: r[3] };
+        let inside = |at: u32, len: u32, side: u32| len > 0 && u64::from(at) + u64::from(len) <= u64::from(side);
+        if !inside(region.x0, region.width, frame.0) || !inside(region.y0, region.height, frame.1) {
+            return Err(fail(path, format!("the region {r:?} is not inside the {}x{} frame", frame.0, frame.1)));
         }
-        if !filtered {
-            for (c, ch) in RGB.iter().enumerate() {
-                let w: Vec<&[u32]> =
-                    (0..6).map(|w| u32s(&format!("sum.Square.{ch}.w{w}"))).collect::<Result<_, _>>()?;
-                for (i, p) in pixels.iter_mut().enumerate() {
-                    p.square[c] = Square::from_words([w[0][i], w[1][i], w[2][i], w[3][i], w[4][i], w[5][i]]);
-                }
-            }
+        // A Whitted part of some of the samples holds their records, one below the other.
+        let raw = end_unit - first_unit < total_units;
+        let rows = match attr("glint.kind")? {
+            "whitted" if raw => u64::from(region.height) * (end_unit - first_unit),
+            "whitted" | "path" => u64::from(region.height),
+            v => return Err(bad("glint.kind", v)),
+        };
+        if (u64::from(t.width), u64::from(t.height)) != (u64::from(region.width), rows) {
+            return Err(fail(
+                path,
+                format!("its table is {}x{}, where the header says {}x{rows}", t.width, t.height, region.width),
+            ));
         }
-        for (i, (s, c)) in u32s("count.samples")?.iter().zip(u32s("count.covered")?).enumerate() {
-            pixels[i].samples = *s;
-            pixels[i].covered = *c;
-        }
-        let first = if first_unit == 0 {
-            let planes: Vec<&[f32]> = FIRST
-                .iter()
-                .map(|name| match t.channel(name) {
-                    Some(TableData::F32(v)) if v.len() == n => Ok(v.as_slice()),
-                    _ => Err(fail(path, format!("channel {name} is missing or not of 32-bit floats"))),
-                })
-                .collect::<Result<_, _>>()?;
-            Some(
-                (0..n)
-                    .map(|i| FirstSample {
-                        albedo: Rgb::new(planes[0][i], planes[1][i], planes[2][i]),
-                        normal: Vec3::new(planes[3][i], planes[4][i], planes[5][i]),
-                        depth: planes[6][i],
-                    })
-                    .collect(),
-            )
-        } else {
-            None
+        let part = match attr("glint.kind")? {
+            "path" => Part::Path(read_path(path, t, filtered, first_unit == 0, end_unit - first_unit)?),
+            _ => Part::Whitted(read_whitted(path, t, region.height, raw)?),
         };
         let settings = fields
             .iter()
@@ -246,25 +267,170 @@ impl Chunk {
         Ok(Chunk {
             hash: attr("glint.hash")?.to_string(),
             version: attr("glint.version")?.to_string(),
+            split,
             index,
             count,
             first_unit,
             end_unit,
             total_units,
+            frame,
+            region,
             settings,
-            sums: PathSums { width: t.width, height: t.height, filtered, units: end_unit - first_unit, pixels, first },
+            part,
         })
     }
 }
 
+/// The channels of a path part.
+fn path_channels(s: &PathSums) -> Vec<(String, TableData)> {
+    // Every plane filled in one pass over the pixels (a pass per plane read the 256-byte
+    // pixel sums 50 times: a tenth of a 1024 × 768 chunk's CPU time).
+    let mut names = Vec::new();
+    for name in QUANTITIES {
+        for ch in RGB {
+            names.extend((0..4).map(|w| format!("sum.{name}.{ch}.w{w}")));
+        }
+    }
+    if !s.filtered {
+        for ch in RGB {
+            names.extend((0..6).map(|w| format!("sum.Square.{ch}.w{w}")));
+        }
+    }
+    names.extend(["count.samples".to_string(), "count.covered".to_string()]);
+    let mut planes: Vec<Vec<u32>> = names.iter().map(|_| Vec::with_capacity(s.pixels.len())).collect();
+    for p in &s.pixels {
+        let mut k = 0;
+        let mut push = |w: u32| {
+            planes[k].push(w);
+            k += 1;
+        };
+        for q in 0..QUANTITIES.len() {
+            sum_of(p, q).iter().flat_map(|&v| fixed::words_i128(v)).for_each(&mut push);
+        }
+        if !s.filtered {
+            p.square.iter().flat_map(|sq| sq.words()).for_each(&mut push);
+        }
+        push(p.samples);
+        push(p.covered);
+    }
+    let mut channels: Vec<(String, TableData)> =
+        names.into_iter().zip(planes).map(|(name, plane)| (name, TableData::U32(plane))).collect();
+    if let Some(first) = &s.first {
+        for (k, name) in FIRST.iter().enumerate() {
+            channels.push(((*name).into(), TableData::F32(first.iter().map(|f| first_value(f, k)).collect())));
+        }
+    }
+    channels
+}
+
+/// The channels of a Whitted part.
+fn whitted_channels(w: &WhittedPart) -> Vec<(String, TableData)> {
+    let mut planes: Vec<Vec<f32>> = WHITTED.iter().map(|_| Vec::with_capacity(w.pixels.len())).collect();
+    for p in &w.pixels {
+        for (plane, v) in planes.iter_mut().zip(whitted_values(p)) {
+            plane.push(v);
+        }
+    }
+    WHITTED.iter().zip(planes).map(|(name, plane)| ((*name).to_string(), TableData::F32(plane))).collect()
+}
+
+/// The path part of table `t` (its size checked against the header).
+fn read_path(path: &Path, t: &ExrTable, filtered: bool, first: bool, units: u64) -> Result<PathSums, ChunkError> {
+    let n = t.width as usize * t.height as usize;
+    let u32s = |name: &str| match t.channel(name) {
+        Some(TableData::U32(v)) if v.len() == n => Ok(v.as_slice()),
+        Some(_) => Err(fail(path, format!("channel {name} is not of 32-bit unsigned integers"))),
+        None => Err(fail(path, format!("channel {name} is missing"))),
+    };
+    let mut pixels = vec![PixelSums::default(); n];
+    for (q, name) in QUANTITIES.iter().enumerate() {
+        for (c, ch) in RGB.iter().enumerate() {
+            let w: Vec<&[u32]> = (0..4).map(|w| u32s(&format!("sum.{name}.{ch}.w{w}"))).collect::<Result<_, _>>()?;
+            for (i, p) in pixels.iter_mut().enumerate() {
+                sum_of_mut(p, q)[c] = fixed::from_words_i128([w[0][i], w[1][i], w[2][i], w[3][i]]);
+            }
+        }
+    }
+    if !filtered {
+        for (c, ch) in RGB.iter().enumerate() {
+            let w: Vec<&[u32]> = (0..6).map(|w| u32s(&format!("sum.Square.{ch}.w{w}"))).collect::<Result<_, _>>()?;
+            for (i, p) in pixels.iter_mut().enumerate() {
+                p.square[c] = Square::from_words([w[0][i], w[1][i], w[2][i], w[3][i], w[4][i], w[5][i]]);
+            }
+        }
+    }
+    for (i, (s, c)) in u32s("count.samples")?.iter().zip(u32s("count.covered")?).enumerate() {
+        pixels[i].samples = *s;
+        pixels[i].covered = *c;
+    }
+    let first = if first {
+        let planes = f32_planes(path, t, &FIRST)?;
+        Some(
+            (0..n)
+                .map(|i| FirstSample {
+                    albedo: Rgb::new(planes[0][i], planes[1][i], planes[2][i]),
+                    normal: Vec3::new(planes[3][i], planes[4][i], planes[5][i]),
+                    depth: planes[6][i],
+                })
+                .collect(),
+        )
+    } else {
+        None
+    };
+    Ok(PathSums { width: t.width, height: t.height, filtered, units, pixels, first })
+}
+
+/// The Whitted part of table `t` (of records `height` rows each).
+fn read_whitted(path: &Path, t: &ExrTable, height: u32, raw: bool) -> Result<WhittedPart, ChunkError> {
+    let planes = f32_planes(path, t, &WHITTED)?;
+    let pixels = (0..t.width as usize * t.height as usize)
+        .map(|i| {
+            let v = |k: usize| planes[k][i];
+            FilmPixel {
+                colour: Rgb::new(v(0), v(1), v(2)),
+                normal: Vec3::new(v(3), v(4), v(5)),
+                albedo: Rgb::new(v(6), v(7), v(8)),
+                depth: v(9),
+                coverage: v(10),
+                ..FilmPixel::default()
+            }
+        })
+        .collect();
+    Ok(WhittedPart { width: t.width, height, pixels, raw })
+}
+
+/// The f32 channels `names` of table `t`, each of its size.
+fn f32_planes<'t>(path: &Path, t: &'t ExrTable, names: &[&str]) -> Result<Vec<&'t [f32]>, ChunkError> {
+    let n = t.width as usize * t.height as usize;
+    names
+        .iter()
+        .map(|name| match t.channel(name) {
+            Some(TableData::F32(v)) if v.len() == n => Ok(v.as_slice()),
+            _ => Err(fail(path, format!("channel {name} is missing or not of 32-bit floats"))),
+        })
+        .collect()
+}
+
+/// A frame put together from its chunks.
+#[derive(Debug)]
+pub struct Merged {
+    /// The frame as the single-process render leaves it.
+    pub film: Film,
+    /// The chunks' `glint.setting.*` (how to write it).
+    pub settings: Vec<(String, String)>,
+    /// What was merged, for the summary line ("4 tiles of a 640x480 path frame (16 passes)").
+    pub description: String,
+}
+
 /// Check that `chunks` (read from the paths beside them) are every chunk of one frame, each
-/// once, and add them in index order: the frame's sums and the chunks' settings.
+/// once, and put them together: shares of samples added in index order, tiles placed.
 ///
 /// # Errors
 /// [`ChunkError`] naming the files: no chunks; chunks of another frame (hash, glint version,
-/// chunk count, size, units, settings) than the first; two files of one chunk; a missing
-/// chunk; units that do not tile the frame.
-pub fn merge(chunks: Vec<(PathBuf, Chunk)>) -> Result<(PathSums, Vec<(String, String)>), ChunkError> {
+/// kind, split, chunk count, size, units, settings) than the first; two files of one chunk; a
+/// missing chunk; shares whose units do not tile the frame's, tiles not where the split puts
+/// them.
+pub fn merge(chunks: Vec<(PathBuf, Chunk)>) -> Result<Merged, ChunkError> {
     let Some((first_path, first)) = chunks.first() else {
         return Err(ChunkError { message: "no chunk files to merge".into() });
     };
@@ -277,6 +443,12 @@ pub fn merge(chunks: Vec<(PathBuf, Chunk)>) -> Result<(PathSums, Vec<(String, St
             path.display()
         ),
     };
+    let kind = |c: &Chunk| match &c.part {
+        Part::Path(s) if s.filtered => "filtered path",
+        Part::Path(_) => "path",
+        Part::Whitted(_) => "whitted",
+    };
+    let size = |c: &Chunk| format!("{}x{}", c.frame.0, c.frame.1);
     for (path, c) in chunks {
         if c.hash != first.hash {
             return Err(differs(&path, "scene and settings hash", &first.hash, &c.hash));
@@ -284,11 +456,16 @@ pub fn merge(chunks: Vec<(PathBuf, Chunk)>) -> Result<(PathSums, Vec<(String, St
         if c.version != first.version {
             return Err(differs(&path, "glint version", &first.version, &c.version));
         }
+        if c.split != first.split {
+            return Err(differs(&path, "split into", &first.split.name(), &c.split.name()));
+        }
         if c.count != first.count {
             return Err(differs(&path, "chunk count", &first.count, &c.count));
         }
-        let size = |c: &Chunk| format!("{}x{}", c.sums.width, c.sums.height);
-        if size(&c) != size(&first) || c.sums.filtered != first.sums.filtered || c.total_units != first.total_units {
+        if kind(&c) != kind(&first) {
+            return Err(differs(&path, "kind of frame", &kind(&first), &kind(&c)));
+        }
+        if size(&c) != size(&first) || c.total_units != first.total_units {
             return Err(differs(&path, "frame size and units", &size(&first), &size(&c)));
         }
         if c.settings != first.settings {
@@ -320,20 +497,29 @@ pub fn merge(chunks: Vec<(PathBuf, Chunk)>) -> Result<(PathSums, Vec<(String, St
             ),
         });
     }
-    let mut total: Option<PathSums> = None;
+    let chunks: Vec<(PathBuf, Chunk)> = slots.into_iter().flatten().collect();
+    let (w, h) = first.frame;
+    let whole = Region::whole(w, h);
+    // Where each chunk must lie and which units it must hold.
     let mut next_unit = 0;
-    for (path, c) in slots.into_iter().flatten() {
-        if c.first_unit != next_unit {
+    for (path, c) in &chunks {
+        let (region, units) = match c.split {
+            Split::Samples => (whole, next_unit..c.end_unit),
+            Split::Tiles => (Region::tile(w, h, c.index, c.count).map_err(|e| fail(path, e))?, 0..first.total_units),
+        };
+        if c.region != region {
             return Err(fail(
-                &path,
-                format!("holds units {}..{}, expected them to start at {next_unit}", c.first_unit, c.end_unit),
+                path,
+                format!("holds the pixels {:?}, where the {} split puts {region:?}", c.region, c.split.name()),
+            ));
+        }
+        if c.first_unit != units.start || c.end_unit != units.end {
+            return Err(fail(
+                path,
+                format!("holds units {}..{}, expected {}..{}", c.first_unit, c.end_unit, units.start, units.end),
             ));
         }
         next_unit = c.end_unit;
-        match &mut total {
-            None => total = Some(c.sums),
-            Some(t) => t.add(&c.sums).map_err(|e| fail(&path, e))?,
-        }
     }
     if next_unit != first.total_units {
         return Err(fail(
@@ -341,8 +527,95 @@ pub fn merge(chunks: Vec<(PathBuf, Chunk)>) -> Result<(PathSums, Vec<(String, St
             format!("the chunks hold {next_unit} of the frame's {} units", first.total_units),
         ));
     }
+    let mut film = Film::try_new(1, 1).map_err(|e| fail(&first_path, e))?;
+    let units_name = match &first.part {
+        Part::Path(s) if s.filtered => "passes",
+        _ => "samples per pixel",
+    };
+    let description = format!(
+        "{} {} of a {w}x{h} {} frame ({} {units_name})",
+        first.count,
+        match (first.split, first.count) {
+            (Split::Samples, 1) => "chunk",
+            (Split::Samples, _) => "chunks of samples",
+            (Split::Tiles, 1) => "tile",
+            (Split::Tiles, _) => "tiles",
+        },
+        kind(&first),
+        first.total_units
+    );
+    match first.part {
+        Part::Path(_) => merge_path(chunks, whole, &mut film)?,
+        Part::Whitted(_) => merge_whitted(chunks, whole, first.total_units, &mut film)?,
+    }
+    Ok(Merged { film, settings: first.settings, description })
+}
+
+/// The film of a path frame's chunks (checked by [`merge`]).
+fn merge_path(chunks: Vec<(PathBuf, Chunk)>, whole: Region, film: &mut Film) -> Result<(), ChunkError> {
+    let mut total: Option<PathSums> = None;
+    for (path, c) in chunks {
+        let Part::Path(sums) = c.part else { continue };
+        if (sums.width, sums.height) != (c.region.width, c.region.height) {
+            return Err(fail(&path, "its sums are not of its region's size"));
+        }
+        match (&mut total, c.split) {
+            (None, Split::Samples) => total = Some(sums),
+            (Some(t), Split::Samples) => t.add(&sums).map_err(|e| fail(&path, e))?,
+            (t, Split::Tiles) => {
+                let t = t.get_or_insert_with(|| PathSums {
+                    width: whole.width,
+                    height: whole.height,
+                    filtered: sums.filtered,
+                    units: sums.units,
+                    pixels: vec![PixelSums::default(); whole.pixels()],
+                    first: Some(vec![FirstSample::default(); whole.pixels()]),
+                });
+                place(&mut t.pixels, whole.width as usize, c.region, &sums.pixels);
+                let (Some(all), Some(part)) = (t.first.as_mut(), sums.first.as_ref()) else {
+                    return Err(fail(&path, "a tile without its first sample's AOVs"));
+                };
+                place(all, whole.width as usize, c.region, part);
+            }
+        }
+    }
     let sums = total.ok_or_else(|| ChunkError { message: "no chunk files to merge".into() })?;
-    Ok((sums, first.settings))
+    sums.resolve(film).map_err(|e| ChunkError { message: e.to_string() })
+}
+
+/// The film of a Whitted frame's chunks (checked by [`merge`]): tiles placed, a whole frame
+/// taken as it is, shares of samples added in sample order as the single run adds them.
+fn merge_whitted(
+    chunks: Vec<(PathBuf, Chunk)>,
+    whole: Region,
+    samples: u64,
+    film: &mut Film,
+) -> Result<(), ChunkError> {
+    let some_path = chunks.first().map(|(p, _)| p.clone()).unwrap_or_default();
+    film.reset(whole.width, whole.height).map_err(|e| fail(&some_path, e))?;
+    let mut sum: Option<SampleSum> = None;
+    for (path, c) in chunks {
+        let Part::Whitted(part) = c.part else { continue };
+        let records = if part.raw { c.end_unit - c.first_unit } else { 1 };
+        if part.width != c.region.width || part.pixels.len() as u64 != c.region.pixels() as u64 * records {
+            return Err(fail(&path, "its pixels are not of its region's size"));
+        }
+        if !part.raw {
+            place(&mut film.pixels, whole.width as usize, c.region, &part.pixels);
+            continue;
+        }
+        let sum = match &mut sum {
+            Some(s) => s,
+            None => sum.insert(SampleSum::try_new(whole.pixels()).map_err(|e| fail(&path, e))?),
+        };
+        for one in part.pixels.chunks_exact(whole.pixels().max(1)) {
+            sum.add(one);
+        }
+    }
+    if let Some(sum) = sum {
+        sum.finish(samples as u32, &mut film.pixels);
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -364,13 +637,16 @@ mod tests {
         let c = Chunk {
             hash: "ab".repeat(16),
             version: "0.1.0".into(),
+            split: Split::Samples,
             index,
             count,
             first_unit: a,
             end_unit: b,
             total_units: total,
+            frame: (width, 2),
+            region: Region::whole(width, 2),
             settings: vec![("exposure".into(), "0.0".into())],
-            sums,
+            part: Part::Path(sums),
         };
         (PathBuf::from(format!("part_{index}.exr")), c)
     }
@@ -384,13 +660,75 @@ mod tests {
     }
 
     #[test]
+    fn whitted_parts_round_trip_through_their_tables() {
+        let pixel = |i: usize| FilmPixel {
+            colour: Rgb::new(i as f32, 0.5, -0.0),
+            normal: Vec3::new(0.1, 0.2, i as f32),
+            albedo: Rgb::splat(0.25),
+            depth: if i.is_multiple_of(2) { f32::INFINITY } else { 3.0 },
+            coverage: (i % 2) as f32,
+            ..FilmPixel::default()
+        };
+        // Samples 1..3 of 4 (raw records, two below each other), then a whole tile.
+        for (first, end, raw, tile) in [(1, 3, true, None), (2, 3, true, None), (0, 4, false, Some((2, 3)))] {
+            let region = match tile {
+                Some((i, n)) => Region::tile(5, 4, i, n).expect("tile"),
+                None => Region::whole(5, 4),
+            };
+            let records = if raw { (end - first) as usize } else { 1 };
+            let part = WhittedPart {
+                width: region.width,
+                height: region.height,
+                pixels: (0..region.pixels() * records).map(pixel).collect(),
+                raw,
+            };
+            let c = Chunk {
+                hash: "cd".repeat(16),
+                version: "0.1.0".into(),
+                split: if tile.is_some() { Split::Tiles } else { Split::Samples },
+                index: tile.map_or(1, |t| t.0),
+                count: tile.map_or(2, |t| t.1),
+                first_unit: first,
+                end_unit: end,
+                total_units: 4,
+                frame: (5, 4),
+                region,
+                settings: Vec::new(),
+                part: Part::Whitted(part),
+            };
+            let back = Chunk::from_table(Path::new("w.exr"), &c.to_table()).expect("read back");
+            assert_eq!(format!("{back:?}"), format!("{c:?}"), "bit for bit (-0 and inf kept)");
+        }
+    }
+
+    #[test]
+    fn tiles_cover_the_image_once_as_square_as_the_count_allows() {
+        for (w, h, n) in [(1024, 768, 4), (1024, 768, 7), (640, 480, 6), (3, 5, 15), (100, 1, 7)] {
+            let mut seen = vec![0u8; w as usize * h as usize];
+            for i in 0..n {
+                let r = Region::tile(w, h, i, n).expect("tile");
+                assert!(r.width > 0 && r.height > 0);
+                for y in r.y0..r.y0 + r.height {
+                    for x in r.x0..r.x0 + r.width {
+                        seen[(y * w + x) as usize] += 1;
+                    }
+                }
+            }
+            assert!(seen.iter().all(|&c| c == 1), "{w}x{h} in {n} tiles");
+        }
+        assert_eq!(Region::tile(1024, 768, 1, 4).expect("tile"), Region { x0: 512, y0: 0, width: 512, height: 384 });
+        assert!(Region::tile(2, 2, 0, 5).is_err(), "5 tiles of 2x2: a grid of 5 does not fit");
+        assert!(Region::tile(8, 8, 4, 4).is_err());
+    }
+
+    #[test]
     fn merging_adds_every_chunk_once_and_refuses_the_rest() {
         let all: Vec<_> = (0..3).map(|i| chunk(i, 3, 3)).collect();
-        let (sums, _) = merge(all.iter().rev().cloned().collect()).expect("merge");
-        assert_eq!(sums.units, 6);
-        assert_eq!(sums.pixels[0].samples, 6);
-        assert_eq!(sums.pixels[0].covered, 3);
-        assert!(sums.first.is_some());
+        let merged = merge(all.iter().rev().cloned().collect()).expect("merge");
+        let p = merged.film.pixels[0];
+        assert_eq!(p.samples, 6.0);
+        assert_eq!(p.coverage, 0.5);
+        assert_eq!(p.depth, 2.5, "the first sample's AOVs");
         let refused = |set: Vec<(PathBuf, Chunk)>, needle: &str| {
             let e = merge(set).expect_err("refused").to_string();
             assert!(e.contains(needle), "{e}");
@@ -398,6 +736,12 @@ mod tests {
         let mut wide = all.clone();
         wide[1] = chunk(1, 3, 4);
         refused(wide, "frame size");
+        let mut tiled = all.clone();
+        tiled[2].1.split = Split::Tiles;
+        refused(tiled, "split into samples vs tiles");
+        let mut moved = all.clone();
+        moved[1].1.region = Region { x0: 1, y0: 0, width: 2, height: 2 };
+        refused(moved, "holds the pixels");
         let mut other = all.clone();
         other[2].1.settings[0].1 = "1.0".into();
         refused(other, "output settings");
@@ -406,7 +750,7 @@ mod tests {
         refused(old, "glint version");
         let mut gap = all.clone();
         gap[1].1.first_unit = 3;
-        refused(gap, "expected them to start at 2");
+        refused(gap, "holds units 3..4, expected 2..4");
         refused(Vec::new(), "no chunk files");
         refused(all[..2].to_vec(), "chunk 2 of 3 missing");
     }

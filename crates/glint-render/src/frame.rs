@@ -13,8 +13,10 @@
 
 use crate::bands::Hooks;
 use crate::film::Film;
+use crate::film::FilmPixel;
 use crate::path::{PathAccumulator, PathSettings, PathSums, Share, render_path, render_path_sums};
 use crate::points::{PointFrame, PointRenderer, PointSettings};
+use crate::settings::Region;
 use crate::settings::{ImageSettings, WhittedSettings};
 use crate::stats::FrameStats;
 use crate::whitted::{self, Samples};
@@ -85,6 +87,25 @@ impl ModeSettings {
             RenderMode::Points => Mode::Points { points: self.points, meshes: self.whitted },
         }
     }
+}
+
+/// A part of a frame as a chunk file holds it ([`Renderer::render_part`]).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Part {
+    /// Path mode: per-pixel fixed-point sums of a share of the units.
+    Path(PathSums),
+    /// Whitted mode: pixels of the part's region.
+    Whitted(WhittedPart),
+}
+
+/// A Whitted part: finished pixels when it holds every sample, else its samples' raw records
+/// ([`Samples::One`]), sample after sample (`width × height` each).
+#[derive(Clone, Debug, PartialEq)]
+pub struct WhittedPart {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<FilmPixel>,
+    pub raw: bool,
 }
 
 /// The picture a [`Renderer`] holds: a film, or (a points frame of clouds alone, which the
@@ -499,40 +520,117 @@ impl Renderer {
         )
     }
 
-    /// Trace `share` of a path frame's units (its passes with a filter, its samples per pixel
-    /// without one) into per-pixel sums: what a chunk file holds. Every share's sums added and
-    /// resolved ([`PathSums::add`], [`PathSums::resolve`]) are [`Renderer::render`]'s film bit
-    /// for bit, which resolves the whole frame's sums the same way. The held picture is left
-    /// as it is.
+    /// Render a part of a frame for a chunk file: `share` of its units (a path frame's passes
+    /// with a filter, its samples per pixel without one; a Whitted frame's samples per pixel)
+    /// over `region` of its pixels (None: all of them). The parts of a frame put together
+    /// ([`crate::chunk::merge`]) are [`Renderer::render`]'s film bit for bit: a path part
+    /// holds per-pixel fixed-point sums, which the whole frame resolves the same way; a
+    /// Whitted part holding every sample holds finished pixels, one holding some of them its
+    /// samples' raw records, which a supersampled frame adds in sample order
+    /// ([`whitted::SampleSum`]). The held picture is left as it is.
     ///
     /// # Errors
-    /// As [`Renderer::render`]; [`RenderError::InvalidSetting`] for a mode other than path
-    /// (the Whitted and points modes are not split by samples) and a share outside the
-    /// frame's units.
-    pub fn render_share(
+    /// As [`Renderer::render`]; [`RenderError::InvalidSetting`] for the points mode (global:
+    /// not split), a share outside the frame's units or a region outside the image.
+    pub fn render_part(
         &mut self,
         camera: &Camera,
         image: &ImageSettings,
         mode: &Mode,
         share: Share,
+        region: Option<Region>,
         hooks: &Hooks,
-    ) -> Result<(FrameStats, PathSums), RenderError> {
-        let Mode::Path(settings) = mode else {
+    ) -> Result<(FrameStats, Part), RenderError> {
+        if !self.supports(mode.kind()) || mode.kind() == RenderMode::Points {
             return Err(RenderError::InvalidSetting(format!(
-                "chunks of samples split path frames; a {} frame renders whole (or in windows: --crop)",
+                "a {} frame of this scene is not split into chunks: the ray-tracing modes are, and only for scenes with objects",
                 mode.kind().name()
             )));
-        };
-        if !self.supports(mode.kind()) {
-            return Err(RenderError::InvalidSetting(
-                "this scene has only point clouds: the ray-tracing modes have nothing to trace".into(),
-            ));
         }
         check_frame_memory(image, mode.kind())?;
-        let (mut stats, sums) = render_path_sums(&self.world, camera, image, settings, share, hooks)?;
-        stats.summary =
-            format!("chunk {}/{} of {}", share.index, share.count, self.path_summary(image, settings, &stats));
-        Ok((stats, sums))
+        let part_name = |stats: &FrameStats| match region {
+            Some(r) => format!("tile {}/{} ({}x{} at {},{})", share.index, share.count, r.width, r.height, r.x0, r.y0),
+            None if stats.passes == 0 => String::new(),
+            None => format!("chunk {}/{}", share.index, share.count),
+        };
+        match mode {
+            Mode::Path(settings) => {
+                let (mut stats, sums) = render_path_sums(&self.world, camera, image, settings, share, region, hooks)?;
+                let part_image = region.map_or(*image, |r| image.sub(r));
+                stats.summary =
+                    format!("{} of {}", part_name(&stats), self.path_summary(&part_image, settings, &stats));
+                Ok((stats, Part::Path(sums)))
+            }
+            Mode::Whitted(settings) => {
+                let part_image = region.map_or(*image, |r| image.sub(r));
+                let samples = settings.samples_per_side * settings.samples_per_side;
+                let units = share.units(u64::from(samples));
+                if share.count == 0 || share.index >= share.count || u64::from(share.count) > u64::from(samples) {
+                    return Err(RenderError::InvalidSetting(format!(
+                        "chunk {}/{} of a Whitted frame of {samples} samples per pixel: at most one chunk per sample (0-based)",
+                        share.index, share.count
+                    )));
+                }
+                let world = &self.world;
+                let (stats, part) = if units == (0..u64::from(samples)) {
+                    let stats = whitted::render(
+                        world,
+                        camera,
+                        &part_image,
+                        settings,
+                        Samples::Stratified,
+                        hooks,
+                        &mut self.film,
+                    )?;
+                    (
+                        stats,
+                        WhittedPart {
+                            width: part_image.width,
+                            height: part_image.height,
+                            pixels: self.film.pixels.clone(),
+                            raw: false,
+                        },
+                    )
+                } else {
+                    let what = || format!("the sample records of a {} x {} image", part_image.width, part_image.height);
+                    let count = (units.end - units.start) as usize;
+                    let mut pixels =
+                        glint_core::memory::try_with_capacity(what, part_image.pixels().saturating_mul(count))?;
+                    let mut stats = FrameStats::default();
+                    let start = Instant::now();
+                    let scratch = &mut self.scratch;
+                    hooks.over_passes(count as u64, |hooks| -> Result<(), RenderError> {
+                        for s in units {
+                            let one = Samples::One(s as u32);
+                            let one = whitted::render(world, camera, &part_image, settings, one, hooks, scratch)?;
+                            pixels.extend_from_slice(&scratch.pixels);
+                            stats.rays.add(&one.rays);
+                            stats.rejected_samples += one.rejected_samples;
+                            stats.clamped_samples += one.clamped_samples;
+                            stats.samples_per_pixel += 1;
+                        }
+                        Ok(())
+                    })?;
+                    stats.elapsed = start.elapsed();
+                    (stats, WhittedPart { width: part_image.width, height: part_image.height, pixels, raw: true })
+                };
+                let mut stats = stats;
+                stats.summary = format!(
+                    "{} of whitted {}x{} at {} of {samples} spp in {:.3} s ({:.1} Mrays/s, {})",
+                    part_name(&stats),
+                    part_image.width,
+                    part_image.height,
+                    stats.samples_per_pixel,
+                    stats.elapsed.as_secs_f64(),
+                    stats.mrays_per_second(),
+                    self.built(),
+                );
+                // The film no longer holds a picture that a pass could refine.
+                (self.progressive, self.accumulated) = (false, 0);
+                Ok((stats, Part::Whitted(part)))
+            }
+            Mode::Points { .. } => unreachable!("refused above"),
+        }
     }
 
     /// "build X ms, N triangles": the acceleration structures, for summaries.

@@ -33,7 +33,76 @@ pub struct Window {
     pub y0: u32,
 }
 
+/// A rectangle of an image's pixels: a tile of a frame split for a cluster (`glint render
+/// --tile I/N`), in the image's own coordinates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Region {
+    pub x0: u32,
+    pub y0: u32,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Region {
+    /// The whole of a `width × height` image.
+    #[must_use]
+    pub fn whole(width: u32, height: u32) -> Region {
+        Region { x0: 0, y0: 0, width, height }
+    }
+
+    /// Tile `index` of `count` of a `width × height` image: a grid of `c × r = count` tiles
+    /// whose shape is the squarest of the ways `count` factors (the fewest columns on a
+    /// tie), tiles in row-major order, column j spanning `⌊j·width/c⌋ .. ⌊(j+1)·width/c⌋`
+    /// (rows alike). Deterministic: the same split in every process.
+    ///
+    /// # Errors
+    /// [`RenderError::InvalidSetting`] when the index is not below the count or the image has
+    /// fewer pixels than the grid needs (a tile would be empty).
+    pub fn tile(width: u32, height: u32, index: u32, count: u32) -> Result<Region, RenderError> {
+        if count == 0 || index >= count {
+            return Err(RenderError::InvalidSetting(format!(
+                "tile {index}/{count}: the index must be below the count (0-based)"
+            )));
+        }
+        let squareness = |c: u32| {
+            let r = count / c;
+            ((f64::from(width) / f64::from(c)) / (f64::from(height) / f64::from(r))).ln().abs()
+        };
+        let columns = (1..=count)
+            .filter(|c| count.is_multiple_of(*c) && *c <= width && count / c <= height)
+            .min_by(|&a, &b| squareness(a).total_cmp(&squareness(b)))
+            .ok_or_else(|| {
+                RenderError::InvalidSetting(format!(
+                    "{count} tiles of a {width}x{height} image: no grid of {count} tiles fits (a tile would be empty)"
+                ))
+            })?;
+        let rows = count / columns;
+        let (j, i) = (index % columns, index / columns);
+        let at = |k: u32, n: u32, side: u32| (u64::from(k) * u64::from(side) / u64::from(n)) as u32;
+        let (x0, y0) = (at(j, columns, width), at(i, rows, height));
+        Ok(Region { x0, y0, width: at(j + 1, columns, width) - x0, height: at(i + 1, rows, height) - y0 })
+    }
+
+    pub(crate) fn pixels(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+}
+
 impl ImageSettings {
+    /// The image of `region`'s pixels: a window of this image's film with the same camera
+    /// rays and random numbers, so its pixels are this image's own.
+    #[must_use]
+    pub fn sub(&self, region: Region) -> ImageSettings {
+        let (fx, fy) = self.film_origin();
+        let (full_width, full_height) =
+            self.window.map_or((self.width, self.height), |w| (w.full_width, w.full_height));
+        ImageSettings {
+            width: region.width,
+            height: region.height,
+            window: Some(Window { full_width, full_height, x0: fx as u32 + region.x0, y0: fy as u32 + region.y0 }),
+            ..*self
+        }
+    }
     /// The whole film's camera rays: image pixel (x, y) is traced at film position
     /// [`ImageSettings::film_origin`] + (x, y) (integers added first, so a crop's rays are the
     /// film's bit for bit).

@@ -1,11 +1,11 @@
-//! `glint merge`: add the chunk files of a frame (`glint render --chunk I/N`) and finish the
-//! frame as the single-process render does (glint-render's `chunk` module checks and adds;
-//! `PathSums::resolve` is the single run's own last step), then write it like `render` does.
+//! `glint merge`: put the chunk files of a frame together (`glint render --chunk I/N` or
+//! `--tile I/N`) and finish the frame as the single-process render does (glint-render's
+//! `chunk` module checks them, adds shares and places tiles, and ends with the single run's
+//! own last step), then write it like `render` does.
 
 use super::render::{output_kind, png_options_from, write_film};
 use crate::cli::MergeArgs;
 use anyhow::{Result, bail};
-use glint_render::Film;
 use glint_render::chunk::{self, Chunk};
 use std::time::Instant;
 
@@ -24,21 +24,9 @@ pub fn run(args: &MergeArgs) -> Result<()> {
     for input in &args.inputs {
         chunks.push((input.clone(), Chunk::read(input)?));
     }
-    let n = chunks.len();
-    let first = args.inputs[0].clone();
-    let (sums, settings) = chunk::merge(chunks)?;
-    let options = png_options_from(&settings, &first)?;
-    let mut film = Film::try_new(1, 1)?;
-    sums.resolve(&mut film)?;
-    let summary = format!(
-        "merged {n} chunk{} of a {}x{} path frame ({} {}) in {:.3} s",
-        if n == 1 { "" } else { "s" },
-        sums.width,
-        sums.height,
-        sums.units,
-        if sums.filtered { "passes" } else { "samples per pixel" },
-        start.elapsed().as_secs_f64()
-    );
-    write_film(&args.output, kind, &film, &options, &summary, args.quiet)?;
+    let merged = chunk::merge(chunks)?;
+    let options = png_options_from(&merged.settings, &args.inputs[0])?;
+    let summary = format!("merged {} in {:.3} s", merged.description, start.elapsed().as_secs_f64());
+    write_film(&args.output, kind, &merged.film, &options, &summary, args.quiet)?;
     Ok(())
 }

@@ -9,9 +9,9 @@ use glint_filter::{AtrousParams, BilateralParams, Filter, FilterKind, GuideChann
 use glint_formats::points::ColourBy;
 use glint_formats::sky::{FaceTransform, SkyLoadOptions, SkySource, load_sky};
 use glint_image::PngOptions;
-use glint_render::chunk::Chunk;
+use glint_render::chunk::{Chunk, Split};
 use glint_render::path::{PathSettings, Share};
-use glint_render::{Film, Hooks, ImageSettings, Mode, ModeSettings, Renderer, Window};
+use glint_render::{Film, Hooks, ImageSettings, Mode, ModeSettings, Region, Renderer, Window};
 use glint_scene::{Camera, Fov, RenderMode, Scene, Sky};
 use std::path::Path;
 use std::time::Duration;
@@ -265,31 +265,41 @@ fn frame_settings(args: &RenderArgs, scene: &Scene) -> Result<(ImageSettings, Mo
 /// (`SLURM_ARRAY_TASK_ID` less `SLURM_ARRAY_TASK_MIN`, 0 when unset) or a Kubernetes Indexed
 /// Job (`JOB_COMPLETION_INDEX`). `env` reads a variable.
 pub fn parse_chunk(text: &str, env: impl Fn(&str) -> Option<String>) -> Result<Share> {
-    let form = || anyhow::anyhow!("--chunk {text:?}: expected I/N (chunk I of N, 0-based, e.g. 0/4) or auto/N");
+    parse_share("--chunk", "chunk", text, env)
+}
+
+/// `--tile I/N`, or `auto/N` with I from the scheduler as for [`parse_chunk`].
+pub fn parse_tile(text: &str, env: impl Fn(&str) -> Option<String>) -> Result<Share> {
+    parse_share("--tile", "tile", text, env)
+}
+
+/// `I/N` or `auto/N` of option `flag`, whose parts are called `what`s.
+fn parse_share(flag: &str, what: &str, text: &str, env: impl Fn(&str) -> Option<String>) -> Result<Share> {
+    let form = || anyhow::anyhow!("{flag} {text:?}: expected I/N ({what} I of N, 0-based, e.g. 0/4) or auto/N");
     let (i, n) = text.split_once('/').ok_or_else(form)?;
     let count: u32 = n.trim().parse().map_err(|_| form())?;
     let number = |name: &str, v: &str| -> Result<u32> {
-        v.trim().parse().map_err(|_| anyhow::anyhow!("--chunk {text}: {name}={v:?} is not a whole number"))
+        v.trim().parse().map_err(|_| anyhow::anyhow!("{flag} {text}: {name}={v:?} is not a whole number"))
     };
     let index = if i.trim() == "auto" {
         if let Some(id) = env("SLURM_ARRAY_TASK_ID") {
             let id = number("SLURM_ARRAY_TASK_ID", &id)?;
             let min = env("SLURM_ARRAY_TASK_MIN").map(|m| number("SLURM_ARRAY_TASK_MIN", &m)).transpose()?.unwrap_or(0);
             id.checked_sub(min).ok_or_else(|| {
-                anyhow::anyhow!("--chunk {text}: SLURM_ARRAY_TASK_ID {id} is below SLURM_ARRAY_TASK_MIN {min}")
+                anyhow::anyhow!("{flag} {text}: SLURM_ARRAY_TASK_ID {id} is below SLURM_ARRAY_TASK_MIN {min}")
             })?
         } else if let Some(k) = env("JOB_COMPLETION_INDEX") {
             number("JOB_COMPLETION_INDEX", &k)?
         } else {
             bail!(
-                "--chunk {text}: neither SLURM_ARRAY_TASK_ID (a Slurm job array) nor JOB_COMPLETION_INDEX (a Kubernetes Indexed Job) is set; give the index: --chunk I/{count}"
+                "{flag} {text}: neither SLURM_ARRAY_TASK_ID (a Slurm job array) nor JOB_COMPLETION_INDEX (a Kubernetes Indexed Job) is set; give the index: {flag} I/{count}"
             );
         }
     } else {
         i.trim().parse().map_err(|_| form())?
     };
     if count == 0 || index >= count {
-        bail!("--chunk {text}: chunk {index} of {count} does not exist (chunks are numbered 0..{count})");
+        bail!("{flag} {text}: {what} {index} of {count} does not exist ({what}s are numbered 0..{count})");
     }
     Ok(Share { index, count })
 }
@@ -441,20 +451,23 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     if !args.exposure.is_finite() {
         bail!("--exposure must be a finite number");
     }
-    let share = match &args.chunk {
-        Some(text) => {
-            let share = parse_chunk(text, |k| std::env::var(k).ok())?;
-            if kind != OutputKind::Exr {
-                bail!(
-                    "--chunk writes a chunk file: give -o a .exr name (e.g. part_{}.exr), not {}",
-                    share.index,
-                    args.output.display()
-                );
-            }
-            Some(share)
-        }
-        None => None,
+    let env = |k: &str| std::env::var(k).ok();
+    let split = match (&args.chunk, &args.tile) {
+        (Some(_), Some(_)) => bail!("--chunk and --tile both split the frame: give one"),
+        (Some(text), None) => Some((Split::Samples, parse_chunk(text, env)?)),
+        (None, Some(text)) => Some((Split::Tiles, parse_tile(text, env)?)),
+        (None, None) => None,
     };
+    if let Some((split, share)) = split
+        && kind != OutputKind::Exr
+    {
+        bail!(
+            "--{} writes a chunk file: give -o a .exr name (e.g. part_{}.exr), not {}",
+            if split == Split::Samples { "chunk" } else { "tile" },
+            share.index,
+            args.output.display()
+        );
+    }
     let outputs = frame_outputs(args)?;
     for out in &outputs {
         output_kind(&out.output)?;
@@ -490,15 +503,31 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         );
     }
     let camera = scene.camera;
-    if let Some(share) = share {
-        if frame_mode.kind() != RenderMode::Path {
+    if let Some((split, share)) = split {
+        if points_mode {
             bail!(
-                "--chunk splits a path frame's passes; this is a {} frame (--mode path, or split it in windows with --crop)",
-                frame_mode.kind().name()
+                "--chunk and --tile split Whitted and path frames; a points frame is reconstructed whole (pull-push), render it in one process"
             );
         }
         let settings = output_settings(args);
         let hash_before = frame_hash(&scene, &image, &frame_mode, &settings);
+        let full = Region::whole(image.width, image.height);
+        let region = match split {
+            Split::Samples => None,
+            Split::Tiles => Some(Region::tile(image.width, image.height, share.index, share.count)?),
+        };
+        if args.path.time.is_some() {
+            bail!(
+                "a time budget (--time) decides the passes while rendering: a frame split into chunks or tiles needs a fixed number (--passes)"
+            );
+        }
+        let total_units = match frame_mode {
+            Mode::Path(path) => path.units(),
+            Mode::Whitted(w) => u64::from(w.samples_per_side * w.samples_per_side),
+            Mode::Points { .. } => 1,
+        };
+        // A tile holds every unit of its pixels.
+        let units_share = if split == Split::Tiles { Share::WHOLE } else { share };
         return pool.install(|| -> Result<()> {
             let mut renderer = Renderer::new(scene)?;
             for out in outputs.iter().filter(|o| !skip(args, o)) {
@@ -510,23 +539,32 @@ pub fn run(args: &RenderArgs) -> Result<()> {
                     }
                     None => hash_before.clone(),
                 };
-                let progress = LazyProgress::new(u64::from(image.height), !args.quiet);
+                let rows = region.map_or(image.height, |r| r.height);
+                let progress = LazyProgress::new(u64::from(rows), !args.quiet);
                 let advance = |rows| progress.advance(rows);
-                let (stats, sums) =
-                    renderer.render_share(&camera, &image, &frame_mode, share, &Hooks::with_progress(&advance))?;
+                let (stats, part) = renderer.render_part(
+                    &camera,
+                    &image,
+                    &frame_mode,
+                    units_share,
+                    region,
+                    &Hooks::with_progress(&advance),
+                )?;
                 progress.finish();
-                let Mode::Path(path) = frame_mode else { bail!("--chunk splits a path frame only") };
-                let units = share.units(path.units());
+                let units = units_share.units(total_units);
                 let chunk = Chunk {
                     hash,
                     version: env!("CARGO_PKG_VERSION").to_string(),
+                    split,
                     index: share.index,
                     count: share.count,
                     first_unit: units.start,
                     end_unit: units.end,
-                    total_units: path.units(),
+                    total_units,
+                    frame: (image.width, image.height),
+                    region: region.unwrap_or(full),
                     settings: settings.clone(),
-                    sums,
+                    part,
                 };
                 chunk.write(&out.output)?;
                 if !args.quiet {

@@ -30,7 +30,7 @@ mod wavefront;
 use crate::bands::{self, Hooks};
 use crate::film::Film;
 use crate::fixed;
-use crate::settings::ImageSettings;
+use crate::settings::{ImageSettings, Region};
 use crate::stats::{BandStats, FrameStats};
 use crate::world::SurfaceHit;
 use crate::{RenderError, World};
@@ -415,7 +415,7 @@ pub fn render_path(
     hooks: &Hooks,
     film: &mut Film,
 ) -> Result<FrameStats, RenderError> {
-    let (mut stats, sums) = render_path_sums(world, camera, image, path, Share::WHOLE, hooks)?;
+    let (mut stats, sums) = render_path_sums(world, camera, image, path, Share::WHOLE, None, hooks)?;
     let start = Instant::now();
     sums.resolve(film)?;
     stats.elapsed += start.elapsed();
@@ -423,34 +423,58 @@ pub fn render_path(
 }
 
 /// Trace `share` of a path-traced frame's units (see [`PathSettings::units`]) into per-pixel
-/// sums. A time budget applies to the whole frame only (it adds units while it lasts, up to
-/// [`fixed::MAX_TERMS`] samples per pixel).
+/// sums, of the whole image or of `region`'s pixels (a tile). A time budget applies to the
+/// whole frame only (it adds units while it lasts, up to [`fixed::MAX_TERMS`] samples per
+/// pixel).
+///
+/// A region's sums are the whole frame's at its pixels, bit for bit. Without a filter its
+/// pixels are independent and only they are traced. With one, a pass's samples read the
+/// filtered indirect light of the guide rays around them, and the filter's running sums are
+/// re-based on a grid anchored at the image's edges (`glint_filter::guided`), so no margin
+/// short of the whole image gives the whole frame's bits: every pass traces and filters the
+/// guide rays of the whole image (one sample per pixel of the pass's `spp`) and the other
+/// samples in the region only.
 ///
 /// # Errors
-/// As [`render_path`]; a share outside the frame's units ([`Share::validate`]).
+/// As [`render_path`]; a share outside the frame's units ([`Share::validate`]); a region
+/// outside the image.
 pub fn render_path_sums(
     world: &World,
     camera: &Camera,
     image: &ImageSettings,
     path: &PathSettings,
     share: Share,
+    region: Option<Region>,
     hooks: &Hooks,
 ) -> Result<(FrameStats, PathSums), RenderError> {
     image.validate()?;
     path.validate()?;
     share.validate(path)?;
+    let filtered = path.filtered();
+    let region = match region {
+        Some(r) if r.x0 + r.width > image.width || r.y0 + r.height > image.height || r.pixels() == 0 => {
+            return Err(RenderError::InvalidSetting(format!(
+                "the region {}x{} at ({}, {}) is not inside the {}x{} image",
+                r.width, r.height, r.x0, r.y0, image.width, image.height
+            )));
+        }
+        // Independent pixels: the region is an image of its own.
+        Some(r) if !filtered => return render_path_sums(world, camera, &image.sub(r), path, share, None, hooks),
+        Some(r) => r,
+        None => Region::whole(image.width, image.height),
+    };
+    let tiled = region != Region::whole(image.width, image.height);
     let start = Instant::now();
     let frame = Frame::new(world, camera, image, path);
-    let what = || format!("the path accumulator of a {} x {} image", image.width, image.height);
+    let what = || format!("the path accumulator of a {} x {} image", region.width, region.height);
     // Grown on every thread (its pages are faulted in on each, not serially on this one).
-    let mut acc = glint_core::memory::try_with_capacity(what, image.pixels())?;
-    crate::first_touch::resize(&mut acc, image.pixels(), PixelSums::default());
+    let mut acc = glint_core::memory::try_with_capacity(what, region.pixels())?;
+    crate::first_touch::resize(&mut acc, region.pixels(), PixelSums::default());
     let mut first: Option<Vec<GuidePixel>> = None;
     let mut stats = FrameStats::default();
     let (mut trace, mut filter) = (Duration::ZERO, Duration::ZERO);
     // Progress is reported over the first step, by the loop that finishes its pixels.
     let quiet = Hooks { progress: None, ..*hooks };
-    let filtered = path.filtered();
     let spp = u64::from(path.spp);
     let units = share.units(path.units());
     // A step is a pass (filtered) or the part of a pass's samples inside the share.
@@ -464,7 +488,9 @@ pub fn render_path_sums(
         let (base, count) = if filtered { (pass * spp, 1) } else { (unit, step_end - unit) };
         let first_step = unit == units.start;
         let trace_start = Instant::now();
-        let guide_hooks = if first_step && !(filtered && spp > 1) { hooks } else { &quiet };
+        // A region's progress is its own rows, which only the lookups visit alone.
+        let lookups_report = filtered && (spp > 1 || tiled);
+        let guide_hooks = if first_step && !lookups_report { hooks } else { &quiet };
         let guides = trace_guides(world, &frame, path, base, count, &mut acc, guide_hooks, &mut stats)?;
         trace += trace_start.elapsed();
         if filtered {
@@ -472,8 +498,9 @@ pub fn render_path_sums(
             let filtered = filter_guides(world, &frame, &guides, &path.filter)?;
             filter += filter_start.elapsed();
             let trace_start = Instant::now();
-            let lookup_hooks = if first_step && spp > 1 { hooks } else { &quiet };
-            trace_lookups(world, &frame, path, base, &guides, &filtered, &mut acc, lookup_hooks, &mut stats)?;
+            let lookup_hooks = if first_step && lookups_report { hooks } else { &quiet };
+            let lookups = Lookups { guides: &guides, filtered_indirect: &filtered, region };
+            trace_lookups(world, &frame, path, base, &lookups, &mut acc, lookup_hooks, &mut stats)?;
             trace += trace_start.elapsed();
         }
         if unit == 0 {
@@ -494,13 +521,22 @@ pub fn render_path_sums(
         }
     }
     let samples = if filtered { (unit - units.start) * spp } else { unit - units.start };
+    let region_pixels = |g: Vec<GuidePixel>| -> Vec<GuidePixel> {
+        if !tiled {
+            return g;
+        }
+        let (x0, w) = (region.x0 as usize, image.width as usize);
+        (region.y0 as usize..(region.y0 + region.height) as usize)
+            .flat_map(|y| g[y * w + x0..][..region.width as usize].iter().copied())
+            .collect()
+    };
     let sums = PathSums {
-        width: image.width,
-        height: image.height,
+        width: region.width,
+        height: region.height,
         filtered,
         units: unit - units.start,
         pixels: acc,
-        first: first.map(|g| {
+        first: first.map(region_pixels).map(|g| {
             g.iter()
                 .map(|g| FirstSample {
                     normal: g.sample.guide.map_or(Vec3::ZERO, |q| q.normal),
@@ -512,7 +548,7 @@ pub fn render_path_sums(
     };
     stats.passes = passes;
     stats.samples_per_pixel = samples as u32;
-    stats.paths = image.pixels() as u64 * samples;
+    stats.paths = region.pixels() as u64 * samples;
     stats.elapsed = start.elapsed();
     stats.stages = vec![("trace", trace), ("filter", filter)];
     Ok((stats, sums))
@@ -526,7 +562,7 @@ fn depth_scale(world: &World) -> f32 {
 
 /// A pass's first step: every pixel's guide ray (through its centre when a filter runs) and,
 /// without a filter, `count` samples from `base` on, added to `acc` (the returned guides are
-/// sample `base`'s).
+/// sample `base`'s; with a filter `acc` is not touched).
 #[allow(clippy::too_many_arguments)]
 fn trace_guides(
     world: &World,
@@ -542,8 +578,12 @@ fn trace_guides(
     let band_len = w * BAND_ROWS;
     let filtered = path.filtered();
     let mut guides = Vec::new();
-    crate::first_touch::resize(&mut guides, acc.len(), GuidePixel::default());
-    let parts: Vec<_> = guides.chunks_mut(band_len).zip(acc.chunks_mut(band_len)).collect();
+    crate::first_touch::resize(&mut guides, frame.image.pixels(), GuidePixel::default());
+    let parts: Vec<(&mut [GuidePixel], &mut [PixelSums])> = if filtered {
+        guides.chunks_mut(band_len).map(|g| (g, &mut [][..])).collect()
+    } else {
+        guides.chunks_mut(band_len).zip(acc.chunks_mut(band_len)).collect()
+    };
     let totals = bands::run(parts, frame.schedule, hooks, |band, (gs, accs)| {
         let mut tracer = Tracer::new(world, frame, path.kernel);
         let (mut rejected, mut clamped) = (0, 0);
@@ -558,16 +598,18 @@ fn trace_guides(
             mode: IndirectMode::Trace,
         };
         tracer.samples(gs.len(), count, request, |k, s, _, cs| {
-            let (g, a) = (&mut gs[k], &mut accs[k]);
             let Some(cs) = cs.admitted(&mut rejected, &mut clamped) else {
-                a.samples += !filtered as u32;
+                if !filtered {
+                    accs[k].samples += 1;
+                }
                 return;
             };
             let cs = &cs;
             if s == 0 {
-                g.sample = *cs;
+                gs[k].sample = *cs;
             }
             if !filtered {
+                let a = &mut accs[k];
                 a.add_moments(cs.rest + cs.albedo * cs.indirect);
                 fixed::add_rgb(&mut a.direct, cs.direct);
                 fixed::add_rgb(&mut a.indirect, cs.indirect);
@@ -607,6 +649,14 @@ fn filter_guides(
     Ok((0..guides.len()).into_par_iter().map(|i| buffers.filtered(i)).collect())
 }
 
+/// What a pass's lookups read: the whole image's guide samples and their filtered indirect
+/// light, and the pixels to finish (`region`, whose sums `acc` holds).
+struct Lookups<'a> {
+    guides: &'a [GuidePixel],
+    filtered_indirect: &'a [Rgb],
+    region: Region,
+}
+
 /// A pass's third step: the guide samples' colours with the filtered indirect light, and the
 /// further samples, which read it through the geometry-aware lookup.
 #[allow(clippy::too_many_arguments)]
@@ -615,28 +665,29 @@ fn trace_lookups(
     frame: &Frame,
     path: &PathSettings,
     base: u64,
-    guides: &[GuidePixel],
-    filtered_indirect: &[Rgb],
+    lookups: &Lookups,
     acc: &mut [PixelSums],
     hooks: &Hooks,
     stats: &mut FrameStats,
 ) -> Result<(), RenderError> {
+    let Lookups { guides, filtered_indirect, region } = *lookups;
     let w = frame.width;
     let h = guides.len() / w.max(1);
     let normals: Vec<Vec3> = guides.par_iter().map(|g| g.sample.guide.map_or(Vec3::ZERO, |q| q.normal)).collect();
     let depths: Vec<f32> = guides.par_iter().map(|g| g.sample.guide.map_or(f32::INFINITY, |q| q.depth)).collect();
     let map = GuideMap { width: w, height: h, normal: &normals, depth: &depths };
-    let parts: Vec<_> = acc.chunks_mut(w * BAND_ROWS).collect();
+    let (rx, rw) = (region.x0 as usize, region.width as usize);
+    let parts: Vec<_> = acc.chunks_mut(rw * BAND_ROWS).collect();
     let totals = bands::run(parts, frame.schedule, hooks, |band, accs| {
         let mut tracer = Tracer::new(world, frame, path.kernel);
         let (mut rejected, mut clamped) = (0, 0);
-        let y0 = band * BAND_ROWS;
+        let y0 = region.y0 as usize + band * BAND_ROWS;
         // A pass is never split between chunks, so its samples are summed per pixel in f32,
         // in their fixed order (the guide sample first), and the pass's sum goes into the
         // fixed-point sums once: a conversion per pixel and pass, not per sample.
         let mut pass: Vec<(Rgb, Rgb)> = Vec::with_capacity(accs.len());
         for (k, a) in accs.iter_mut().enumerate() {
-            let i = y0 * w + k;
+            let i = (y0 + k / rw) * w + rx + k % rw;
             let g = &guides[i].sample;
             pass.push((g.rest + g.albedo * filtered_indirect[i], g.direct));
             fixed::add_rgb(&mut a.indirect, filtered_indirect[i]);
@@ -645,8 +696,8 @@ fn trace_lookups(
         }
         let further = path.spp as u64 - 1;
         let request = |k: usize, s: u64| Request {
-            x: k % w,
-            y: y0 + k / w,
+            x: rx + k % rw,
+            y: y0 + k / rw,
             index: base + 1 + s,
             centre: false,
             mode: IndirectMode::Lookup,
@@ -668,7 +719,7 @@ fn trace_lookups(
             fixed::add_rgb(&mut a.colour, *colour);
             fixed::add_rgb(&mut a.direct, *direct);
         }
-        hooks.report((accs.len() / w) as u64);
+        hooks.report((accs.len() / rw) as u64);
         BandStats { rays: tracer.counts(), rejected, clamped }
     })?;
     stats.rays.add(&totals.rays);

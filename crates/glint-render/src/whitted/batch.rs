@@ -278,11 +278,9 @@ fn render_tile<I: Isa>(
     counts: &mut RayCounts,
     band: &mut [FilmPixel],
 ) -> (u64, u64) {
-    let n = frame.samples_per_side;
-    let per_pixel = (n * n) as usize;
     let pixels = tile_w * tile_h;
     let Scratch { current, next, sums } = scratch;
-    sums.reset(pixels * per_pixel);
+    sums.reset(pixels);
     current.clear();
     primary_stream::<I>(frame, x0, y0, tile_w, tile_h, current);
     let s = &frame.shading;
@@ -322,13 +320,10 @@ fn render_tile<I: Isa>(
     resolve_tile(frame, sums, x0, tile_w, tile_h, band)
 }
 
-/// The primary rays of a tile: sample s of every pixel, 4 × 2 pixel packets in row-major
-/// order, samples one after the other; sample `k` of the tile's pixel `p` is entry
-/// `k · pixels + p` of the sums.
+/// The primary rays of a tile: the frame's one sample of every pixel ([`Samples::stream`]),
+/// 4 × 2 pixel packets in row-major order; the tile's pixel `p` is entry `p` of the sums.
 #[inline(always)]
 fn primary_stream<I: Isa>(frame: &Frame, x0: usize, y0: usize, tile_w: usize, tile_h: usize, out: &mut Stream) {
-    let n = frame.samples_per_side;
-    let pixels = tile_w * tile_h;
     let origin = V8::<I>::splat(frame.rays.origin);
     let forward = V8::splat(frame.forward);
     // CameraRays::ray across lanes: the same operations, so the same directions.
@@ -337,56 +332,56 @@ fn primary_stream<I: Isa>(frame: &Frame, x0: usize, y0: usize, tile_w: usize, ti
     let (film_x, film_y) = (frame.image.film_origin().0 as f32, frame.image.film_origin().1 as f32);
     let (top_left, right, down) = (V8::splat(top_left), V8::splat(right), V8::splat(down));
     // Pixel centres (one sample, or a pass's first): the same sums across lanes.
-    let centred = matches!(frame.samples, Samples::Pass(0)) || (frame.samples == Samples::Stratified && n == 1);
+    let (s, stream, centred) = frame.samples.stream(frame.samples_per_side);
     let (lane_x, lane_y) = (F8::from_fn(|i| (i % 4) as f32), F8::from_fn(|i| (i / 4) as f32));
     let lane_k = U8x::from_array(std::array::from_fn(|i| ((i / 4) * tile_w + i % 4) as u32));
-    for s in 0..n * n {
-        for by in (0..tile_h).step_by(2) {
-            for bx in (0..tile_w).step_by(4) {
-                if centred && bx + 4 <= tile_w && by + 2 <= tile_h {
-                    let (x, y) = ((x0 + bx) as f32, (y0 + by) as f32);
-                    let half = F8::splat(0.5);
-                    let px = F8::splat(film_x) + (F8::splat(x) + lane_x) + half;
-                    let py = F8::splat(film_y) + (F8::splat(y) + lane_y) + half;
-                    let dir = (top_left + right.scale(px) + down.scale(py)).normalize();
-                    let cos = dir.dot(forward);
-                    let spread = F8::splat(frame.centre_cone) * cos * cos.sqrt();
-                    let sample = U8x::splat((by * tile_w + bx) as u32).wrapping_add(lane_k);
-                    out.push_lanes(M8::all(), origin, dir, V8::splat1(1.0), F8::zero(), spread, sample);
-                    continue;
-                }
-                let mut live = 0u32;
-                let (mut px, mut py) = (F8::zero(), F8::zero());
-                let mut sample = U8x::splat(0);
-                for i in 0..LANES {
-                    let (tx, ty) = (bx + i % 4, by + i / 4);
-                    if tx >= tile_w || ty >= tile_h {
-                        continue;
-                    }
-                    let (x, y) = (x0 + tx, y0 + ty);
-                    let offset = sample_offset(frame, frame.image.pixel_id(x, y), s);
-                    (px[i], py[i]) = (film_x + x as f32 + offset.x, film_y + y as f32 + offset.y);
-                    sample[i] = (s as usize * pixels + ty * tile_w + tx) as u32;
-                    live |= 1 << i;
-                }
+    for by in (0..tile_h).step_by(2) {
+        for bx in (0..tile_w).step_by(4) {
+            if centred && bx + 4 <= tile_w && by + 2 <= tile_h {
+                let (x, y) = ((x0 + bx) as f32, (y0 + by) as f32);
+                let half = F8::splat(0.5);
+                let px = F8::splat(film_x) + (F8::splat(x) + lane_x) + half;
+                let py = F8::splat(film_y) + (F8::splat(y) + lane_y) + half;
                 let dir = (top_left + right.scale(px) + down.scale(py)).normalize();
                 let cos = dir.dot(forward);
                 let spread = F8::splat(frame.centre_cone) * cos * cos.sqrt();
-                out.push_lanes(M8::from_bits(live), origin, dir, V8::splat1(1.0), F8::zero(), spread, sample);
+                let sample = U8x::splat((by * tile_w + bx) as u32).wrapping_add(lane_k);
+                out.push_lanes(M8::all(), origin, dir, V8::splat1(1.0), F8::zero(), spread, sample);
+                continue;
             }
+            let mut live = 0u32;
+            let (mut px, mut py) = (F8::zero(), F8::zero());
+            let mut sample = U8x::splat(0);
+            for i in 0..LANES {
+                let (tx, ty) = (bx + i % 4, by + i / 4);
+                if tx >= tile_w || ty >= tile_h {
+                    continue;
+                }
+                let (x, y) = (x0 + tx, y0 + ty);
+                let offset = sample_offset(frame, frame.image.pixel_id(x, y), s, stream, centred);
+                (px[i], py[i]) = (film_x + x as f32 + offset.x, film_y + y as f32 + offset.y);
+                sample[i] = (ty * tile_w + tx) as u32;
+                live |= 1 << i;
+            }
+            let dir = (top_left + right.scale(px) + down.scale(py)).normalize();
+            let cos = dir.dot(forward);
+            let spread = F8::splat(frame.centre_cone) * cos * cos.sqrt();
+            out.push_lanes(M8::from_bits(live), origin, dir, V8::splat1(1.0), F8::zero(), spread, sample);
         }
     }
 }
 
-/// Where sample `s` of pixel `pixel` lies inside it (the scalar driver's patterns).
+/// Where the frame's sample of pixel `pixel` lies inside it (the scalar driver's patterns):
+/// `s` of the stratified pattern, drawn from random stream `stream`, or the centre.
 #[inline(always)]
-fn sample_offset(frame: &Frame, pixel: u64, s: u32) -> Vec2 {
-    let n = frame.samples_per_side;
+fn sample_offset(frame: &Frame, pixel: u64, s: u32, stream: u64, centred: bool) -> Vec2 {
+    if centred {
+        return Vec2::splat(0.5);
+    }
+    let jitter = SampleStream::new(pixel, stream, frame.seed).next_2d();
     match frame.samples {
-        Samples::Stratified if n == 1 => Vec2::splat(0.5),
-        Samples::Pass(0) => Vec2::splat(0.5),
-        Samples::Stratified => stratified_2d(s, n, SampleStream::new(pixel, u64::from(s), frame.seed).next_2d()),
-        Samples::Pass(k) => SampleStream::new(pixel, u64::from(k), frame.seed).next_2d(),
+        Samples::Stratified | Samples::One(_) => stratified_2d(s, frame.samples_per_side, jitter),
+        Samples::Pass(_) => jitter,
     }
 }
 
@@ -400,66 +395,30 @@ fn resolve_tile(
     tile_h: usize,
     band: &mut [FilmPixel],
 ) -> (u64, u64) {
-    let per_pixel = (frame.samples_per_side * frame.samples_per_side) as usize;
-    let pixels = tile_w * tile_h;
     let (mut rejected, mut clamped) = (0, 0);
-    if per_pixel == 1 {
-        // The real-time case without the loop over samples (which cost 135 instructions a
-        // pixel, a tenth of the frame): the same sums from zero, so the same bits.
-        for ty in 0..tile_h {
-            let k0 = ty * tile_w;
-            let row = &mut band[ty * frame.width + x0..][..tile_w];
-            let colours = &sums.colour[k0..k0 + tile_w];
-            let (hits, normals) = (&sums.hit[k0..k0 + tile_w], &sums.normal[k0..k0 + tile_w]);
-            let (albedos, depths) = (&sums.albedo[k0..k0 + tile_w], &sums.depth[k0..k0 + tile_w]);
-            for (tx, out) in row.iter_mut().enumerate() {
-                let colour = Rgb::ZERO + admit(colours[tx], &mut rejected, &mut clamped).unwrap_or(Rgb::ZERO);
-                *out = if hits[tx] {
-                    FilmPixel {
-                        colour,
-                        normal: (Vec3::ZERO + normals[tx]).normalize_or_zero(),
-                        albedo: Rgb::ZERO + albedos[tx],
-                        depth: 0.0 + depths[tx],
-                        coverage: 1.0,
-                        ..FilmPixel::default()
-                    }
-                } else {
-                    FilmPixel { colour, ..FilmPixel::default() }
-                };
-            }
-        }
-        return (rejected, clamped);
-    }
-    let inv_samples = 1.0 / per_pixel as f32;
+    // A sample's raw record, or the pixel of one sample (the normal normalised): the
+    // scalar driver's accumulator from zero, so the same bits.
+    let raw = matches!(frame.samples, Samples::One(_));
     for ty in 0..tile_h {
-        for tx in 0..tile_w {
-            let p = ty * tile_w + tx;
-            let (mut colour, mut normal, mut albedo, mut depth, mut hits) =
-                (Rgb::ZERO, Vec3::ZERO, Rgb::ZERO, 0.0, 0u32);
-            for s in 0..per_pixel {
-                let k = s * pixels + p;
-                if let Some(c) = admit(sums.colour[k], &mut rejected, &mut clamped) {
-                    colour += c;
-                }
-                if sums.hit[k] {
-                    hits += 1;
-                    normal += sums.normal[k];
-                    albedo += sums.albedo[k];
-                    depth += sums.depth[k];
-                }
-            }
-            band[ty * frame.width + x0 + tx] = if hits == 0 {
-                FilmPixel { colour: colour * inv_samples, ..FilmPixel::default() }
-            } else {
-                let inv_hits = 1.0 / hits as f32;
+        let k0 = ty * tile_w;
+        let row = &mut band[ty * frame.width + x0..][..tile_w];
+        let colours = &sums.colour[k0..k0 + tile_w];
+        let (hits, normals) = (&sums.hit[k0..k0 + tile_w], &sums.normal[k0..k0 + tile_w]);
+        let (albedos, depths) = (&sums.albedo[k0..k0 + tile_w], &sums.depth[k0..k0 + tile_w]);
+        for (tx, out) in row.iter_mut().enumerate() {
+            let colour = Rgb::ZERO + admit(colours[tx], &mut rejected, &mut clamped).unwrap_or(Rgb::ZERO);
+            *out = if hits[tx] {
+                let normal = Vec3::ZERO + normals[tx];
                 FilmPixel {
-                    colour: colour * inv_samples,
-                    normal: normal.normalize_or_zero(),
-                    albedo: albedo * inv_hits,
-                    depth: depth * inv_hits,
-                    coverage: hits as f32 * inv_samples,
+                    colour,
+                    normal: if raw { normal } else { normal.normalize_or_zero() },
+                    albedo: Rgb::ZERO + albedos[tx],
+                    depth: 0.0 + depths[tx],
+                    coverage: 1.0,
                     ..FilmPixel::default()
                 }
+            } else {
+                FilmPixel { colour, ..FilmPixel::default() }
             };
         }
     }

@@ -1,11 +1,14 @@
 //! Whitted ray tracing (DESIGN.md §1; the thesis's backward ray tracer): a frame of it.
 //!
-//! Each pixel's samples (N×N stratified, or one sample of a progressive pass) are traced by
-//! [`Tracer`] (`tracer.rs`: Phong with shadow rays, reflection and refraction on an explicit
-//! stack) and averaged into the film with the first hit's AOVs. Bands of rows go to threads
-//! through the shared band driver; inside a band pixels are visited in 8×8 blocks for ray
-//! coherence. Every sample position is `hash(pixel, sample, seed)`: the image does not depend
-//! on the thread count.
+//! A kernel traces one sample per pixel — the centre, one sample of a progressive pass, or
+//! sample s of the N×N stratified pattern — by [`Tracer`] (`tracer.rs`: Phong with shadow
+//! rays, reflection and refraction on an explicit stack) or by the batched kernel
+//! (`batch.rs`), into the film with the first hit's AOVs. A supersampled frame traces its N²
+//! samples one after the other and adds their records in sample order ([`SampleSum`]), which
+//! is also how the samples of a frame split into chunks are merged (`chunk.rs`). Bands of rows
+//! go to threads through the shared band driver; inside a band pixels are visited in 8×8
+//! blocks for ray coherence. Every sample position is `hash(pixel, sample, seed)`: the image
+//! does not depend on the thread count.
 
 mod batch;
 mod isa;
@@ -40,6 +43,25 @@ pub enum Samples {
     /// pass k > 0, so the average of passes 0..N converges to the supersampled image whatever
     /// the thread count (the viewer adds passes while the camera rests).
     Pass(u32),
+    /// Sample `s` of the `samples_per_side`² stratified pattern alone, every pixel's film
+    /// entry its raw record (see [`SampleSum`]). A supersampled frame is the sum of its
+    /// samples' records in sample order, whether they are traced in one process or in chunks
+    /// of samples merged later: the same additions, so the same bits.
+    One(u32),
+}
+
+impl Samples {
+    /// The random stream index of the kernels' one sample, and whether it goes through the
+    /// pixel centre (`n` samples per side). Kernels trace one sample per pixel:
+    /// [`Samples::Stratified`] reaches them only when `n` is 1.
+    #[inline]
+    fn stream(self, n: u32) -> (u32, u64, bool) {
+        match self {
+            Samples::Stratified => (0, 0, n == 1),
+            Samples::One(s) => (s, u64::from(s), n == 1),
+            Samples::Pass(k) => (0, u64::from(k), k == 0),
+        }
+    }
 }
 
 /// Render a Whitted frame of the world seen by `camera` into `film` (resized to the image).
@@ -58,7 +80,7 @@ pub fn render(
 ) -> Result<FrameStats, RenderError> {
     image.validate()?;
     let mut settings = match samples {
-        Samples::Stratified => *settings,
+        Samples::Stratified | Samples::One(_) => *settings,
         Samples::Pass(_) => WhittedSettings { samples_per_side: 1, ..*settings },
     };
     if camera.lens != glint_scene::Lens::Pinhole || world.scene().lights.iter().any(glint_scene::Light::is_textured) {
@@ -67,6 +89,9 @@ pub fn render(
         settings.kernel = WhittedKernel::Scalar;
     }
     settings.validate()?;
+    if samples == Samples::Stratified && settings.samples_per_side > 1 {
+        return render_supersampled(world, camera, image, &settings, hooks, film);
+    }
     if settings.kernel != WhittedKernel::Scalar
         && let Some(aligned) = aligned_window(image)
     {
@@ -91,50 +116,47 @@ pub fn render(
         let y0 = band_index * BAND_ROWS;
         let rows = band.len() / w;
         let n = settings.samples_per_side;
-        let inv_samples = 1.0 / (n * n) as f32;
+        let (s, index, centre) = samples.stream(n);
         for bx in (0..w).step_by(BLOCK_COLS) {
             for row in 0..rows {
                 let y = y0 + row;
                 for x in bx..(bx + BLOCK_COLS).min(w) {
                     let pixel_index = image.pixel_id(x, y);
                     let mut acc = PixelAccumulator::default();
-                    for s in 0..n * n {
-                        let (index, centre) = match samples {
-                            Samples::Stratified => (u64::from(s), n == 1),
-                            Samples::Pass(k) => (u64::from(k), k == 0),
+                    let (offset, lens) = if centre && !rays.samples_lens() {
+                        (Vec2::splat(0.5), None)
+                    } else {
+                        let mut stream = SampleStream::new(pixel_index, index, image.seed);
+                        let jitter = stream.next_2d();
+                        let offset = match samples {
+                            _ if centre => Vec2::splat(0.5),
+                            Samples::Stratified | Samples::One(_) => stratified_2d(s, n, jitter),
+                            Samples::Pass(_) => jitter,
                         };
-                        let (offset, lens) = if centre && !rays.samples_lens() {
-                            (Vec2::splat(0.5), None)
-                        } else {
-                            let mut stream = SampleStream::new(pixel_index, index, image.seed);
-                            let jitter = stream.next_2d();
-                            let offset = match samples {
-                                _ if centre => Vec2::splat(0.5),
-                                Samples::Stratified => stratified_2d(s, n, jitter),
-                                Samples::Pass(_) => jitter,
-                            };
-                            (offset, rays.samples_lens().then(|| stream.next_2d()))
-                        };
-                        let p = Vec2::new((film_x + x) as f32, (film_y + y) as f32) + offset;
-                        let ray = lens.map_or_else(|| rays.ray(p), |u| rays.ray_through_lens(p, u));
-                        let cos = ray.dir.dot(forward);
-                        let (c, first) = tracer.trace(world, ray, centre_cone * cos * cos.sqrt(), &settings);
-                        if !c.is_finite() {
-                            rejected += 1;
-                        } else if c.max_element() > MAX_SAMPLE_RADIANCE {
-                            acc.colour += c.min(Rgb::splat(MAX_SAMPLE_RADIANCE));
-                            clamped += 1;
-                        } else {
-                            acc.colour += c;
-                        }
-                        if let Some(f) = first {
-                            acc.hits += 1;
-                            acc.normal += f.normal;
-                            acc.albedo += f.albedo;
-                            acc.depth += rays.depth(f.position);
-                        }
+                        (offset, rays.samples_lens().then(|| stream.next_2d()))
+                    };
+                    let p = Vec2::new((film_x + x) as f32, (film_y + y) as f32) + offset;
+                    let ray = lens.map_or_else(|| rays.ray(p), |u| rays.ray_through_lens(p, u));
+                    let cos = ray.dir.dot(forward);
+                    let (c, first) = tracer.trace(world, ray, centre_cone * cos * cos.sqrt(), &settings);
+                    if !c.is_finite() {
+                        rejected += 1;
+                    } else if c.max_element() > MAX_SAMPLE_RADIANCE {
+                        acc.colour += c.min(Rgb::splat(MAX_SAMPLE_RADIANCE));
+                        clamped += 1;
+                    } else {
+                        acc.colour += c;
                     }
-                    band[row * w + x] = acc.finish(inv_samples);
+                    if let Some(f) = first {
+                        acc.hits += 1;
+                        acc.normal += f.normal;
+                        acc.albedo += f.albedo;
+                        acc.depth += rays.depth(f.position);
+                    }
+                    band[row * w + x] = match samples {
+                        Samples::One(_) => acc.record(),
+                        _ => acc.finish(1.0),
+                    };
                 }
             }
         }
@@ -156,7 +178,6 @@ pub fn render(
         }
     };
     let elapsed = start.elapsed();
-    let n = settings.samples_per_side;
     Ok(FrameStats {
         elapsed,
         stages: vec![("trace", elapsed)],
@@ -164,7 +185,7 @@ pub fn render(
         rejected_samples: totals.rejected,
         clamped_samples: totals.clamped,
         passes: 1,
-        samples_per_pixel: n * n,
+        samples_per_pixel: 1,
         ..FrameStats::default()
     })
 }
@@ -216,7 +237,81 @@ fn render_window(
     Ok(stats)
 }
 
-#[derive(Default)]
+/// A supersampled frame: every sample of the pattern traced alone ([`Samples::One`]) and
+/// its records added in sample order ([`SampleSum`]).
+fn render_supersampled(
+    world: &World,
+    camera: &Camera,
+    image: &ImageSettings,
+    settings: &WhittedSettings,
+    hooks: &Hooks,
+    film: &mut Film,
+) -> Result<FrameStats, RenderError> {
+    let start = Instant::now();
+    let n = settings.samples_per_side;
+    let mut sum = SampleSum::try_new(image.pixels())?;
+    let mut scratch = Film::try_new(image.width, image.height)?;
+    let mut stats = FrameStats::default();
+    hooks.over_passes(u64::from(n * n), |hooks| -> Result<(), RenderError> {
+        for s in 0..n * n {
+            let pass = render(world, camera, image, settings, Samples::One(s), hooks, &mut scratch)?;
+            sum.add(&scratch.pixels);
+            stats.rays.add(&pass.rays);
+            stats.rejected_samples += pass.rejected_samples;
+            stats.clamped_samples += pass.clamped_samples;
+        }
+        Ok(())
+    })?;
+    film.reset(image.width, image.height)?;
+    sum.finish(n * n, &mut film.pixels);
+    stats.elapsed = start.elapsed();
+    stats.stages = vec![("trace", stats.elapsed)];
+    stats.passes = 1;
+    stats.samples_per_pixel = n * n;
+    Ok(stats)
+}
+
+/// The running sums of a supersampled frame's pixels, one sample's records at a time (each
+/// pixel's record as [`Samples::One`] leaves it in the film), in sample order.
+pub struct SampleSum {
+    pixels: Vec<PixelAccumulator>,
+}
+
+impl SampleSum {
+    /// Empty sums for `pixels` pixels (allocated fallibly).
+    ///
+    /// # Errors
+    /// [`RenderError`] when the memory budget or the allocator refuses them.
+    pub fn try_new(pixels: usize) -> Result<Self, RenderError> {
+        let what = || format!("the sample sums of {pixels} pixels");
+        let mut v = glint_core::memory::try_with_capacity(what, pixels)?;
+        crate::first_touch::resize(&mut v, pixels, PixelAccumulator::default());
+        Ok(Self { pixels: v })
+    }
+
+    /// Add one sample's records (a film of [`Samples::One`]).
+    pub fn add(&mut self, records: &[FilmPixel]) {
+        use rayon::prelude::*;
+        self.pixels.par_iter_mut().zip(records).for_each(|(acc, r)| {
+            acc.colour += r.colour;
+            if r.coverage > 0.0 {
+                acc.hits += 1;
+                acc.normal += r.normal;
+                acc.albedo += r.albedo;
+                acc.depth += r.depth;
+            }
+        });
+    }
+
+    /// The pixels of `samples` samples.
+    pub fn finish(&self, samples: u32, out: &mut [FilmPixel]) {
+        use rayon::prelude::*;
+        let inv_samples = 1.0 / samples.max(1) as f32;
+        out.par_iter_mut().zip(&self.pixels).for_each(|(o, acc)| *o = acc.finish(inv_samples));
+    }
+}
+
+#[derive(Clone, Copy, Default)]
 struct PixelAccumulator {
     colour: Rgb,
     normal: Vec3,
@@ -226,6 +321,22 @@ struct PixelAccumulator {
 }
 
 impl PixelAccumulator {
+    /// One sample's raw record ([`Samples::One`]): its colour and, when it hit, the first
+    /// hit's normal as it is summed (not normalised), albedo, depth and coverage 1.
+    fn record(&self) -> FilmPixel {
+        if self.hits == 0 {
+            return FilmPixel { colour: self.colour, ..FilmPixel::default() };
+        }
+        FilmPixel {
+            colour: self.colour,
+            normal: self.normal,
+            albedo: self.albedo,
+            depth: self.depth,
+            coverage: 1.0,
+            ..FilmPixel::default()
+        }
+    }
+
     fn finish(self, inv_samples: f32) -> FilmPixel {
         let coverage = self.hits as f32 * inv_samples;
         if self.hits == 0 {
