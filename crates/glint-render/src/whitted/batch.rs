@@ -14,8 +14,8 @@
 //! order differs (depth by depth instead of the scalar stack's), and the Phong power is a
 //! polynomial: the pictures agree to well below one 8-bit step (tested on every scene).
 
-use super::Samples;
 use super::shade8::{LightLanes, MaterialTable, Shading, shade, sky8};
+use super::{PixelAccumulator, Samples};
 use crate::film::{FilmPixel, MAX_SAMPLE_RADIANCE};
 use crate::settings::{ImageSettings, WhittedSettings};
 use crate::stats::{BandStats, RayCounts};
@@ -278,11 +278,31 @@ fn render_tile<I: Isa>(
     counts: &mut RayCounts,
     band: &mut [FilmPixel],
 ) -> (u64, u64) {
+    let per_pixel = frame.samples.range(frame.samples_per_side).len();
     let pixels = tile_w * tile_h;
     let Scratch { current, next, sums } = scratch;
-    sums.reset(pixels);
-    current.clear();
-    primary_stream::<I>(frame, x0, y0, tile_w, tile_h, current);
+    sums.reset(pixels * per_pixel);
+    // One sample of every pixel at a time, each to the end of its rays' trees: a sample's
+    // streams, and so the order its contributions are added in, are the same whichever other
+    // samples the frame traces (a frame split into chunks of samples merges to the same bits).
+    for (k, sample) in frame.samples.range(frame.samples_per_side).enumerate() {
+        current.clear();
+        primary_stream::<I>(frame, x0, y0, tile_w, tile_h, sample, k, current);
+        trace_streams::<I>(frame, current, next, sums, counts);
+    }
+    resolve_tile(frame, sums, x0, tile_w, tile_h, band)
+}
+
+/// Trace `current` (a tile's primary rays) and every ray they spawn, depth by depth, adding
+/// their contributions to `sums`.
+#[inline(always)]
+fn trace_streams<I: Isa>(
+    frame: &Frame,
+    current: &mut Stream,
+    next: &mut Stream,
+    sums: &mut TileSums,
+    counts: &mut RayCounts,
+) {
     let s = &frame.shading;
     let sky = s.world.sky();
     let mut depth = 0;
@@ -317,13 +337,25 @@ fn render_tile<I: Isa>(
         std::mem::swap(current, next);
         depth += 1;
     }
-    resolve_tile(frame, sums, x0, tile_w, tile_h, band)
 }
 
-/// The primary rays of a tile: the frame's one sample of every pixel ([`Samples::stream`]),
-/// 4 × 2 pixel packets in row-major order; the tile's pixel `p` is entry `p` of the sums.
+/// The primary rays of a tile: sample s of every pixel, 4 × 2 pixel packets in row-major
+/// order; sample s is the frame's k-th, whose entry in the sums for the tile's pixel `p` is
+/// `k · pixels + p`.
 #[inline(always)]
-fn primary_stream<I: Isa>(frame: &Frame, x0: usize, y0: usize, tile_w: usize, tile_h: usize, out: &mut Stream) {
+#[allow(clippy::too_many_arguments)]
+fn primary_stream<I: Isa>(
+    frame: &Frame,
+    x0: usize,
+    y0: usize,
+    tile_w: usize,
+    tile_h: usize,
+    s: u32,
+    k: usize,
+    out: &mut Stream,
+) {
+    let n = frame.samples_per_side;
+    let pixels = tile_w * tile_h;
     let origin = V8::<I>::splat(frame.rays.origin);
     let forward = V8::splat(frame.forward);
     // CameraRays::ray across lanes: the same operations, so the same directions.
@@ -332,7 +364,8 @@ fn primary_stream<I: Isa>(frame: &Frame, x0: usize, y0: usize, tile_w: usize, ti
     let (film_x, film_y) = (frame.image.film_origin().0 as f32, frame.image.film_origin().1 as f32);
     let (top_left, right, down) = (V8::splat(top_left), V8::splat(right), V8::splat(down));
     // Pixel centres (one sample, or a pass's first): the same sums across lanes.
-    let (s, stream, centred) = frame.samples.stream(frame.samples_per_side);
+    let centred = matches!(frame.samples, Samples::Pass(0))
+        || (matches!(frame.samples, Samples::Stratified | Samples::One(_)) && n == 1);
     let (lane_x, lane_y) = (F8::from_fn(|i| (i % 4) as f32), F8::from_fn(|i| (i / 4) as f32));
     let lane_k = U8x::from_array(std::array::from_fn(|i| ((i / 4) * tile_w + i % 4) as u32));
     for by in (0..tile_h).step_by(2) {
@@ -358,9 +391,9 @@ fn primary_stream<I: Isa>(frame: &Frame, x0: usize, y0: usize, tile_w: usize, ti
                     continue;
                 }
                 let (x, y) = (x0 + tx, y0 + ty);
-                let offset = sample_offset(frame, frame.image.pixel_id(x, y), s, stream, centred);
+                let offset = sample_offset(frame, frame.image.pixel_id(x, y), s);
                 (px[i], py[i]) = (film_x + x as f32 + offset.x, film_y + y as f32 + offset.y);
-                sample[i] = (ty * tile_w + tx) as u32;
+                sample[i] = (k * pixels + ty * tile_w + tx) as u32;
                 live |= 1 << i;
             }
             let dir = (top_left + right.scale(px) + down.scale(py)).normalize();
@@ -371,17 +404,17 @@ fn primary_stream<I: Isa>(frame: &Frame, x0: usize, y0: usize, tile_w: usize, ti
     }
 }
 
-/// Where the frame's sample of pixel `pixel` lies inside it (the scalar driver's patterns):
-/// `s` of the stratified pattern, drawn from random stream `stream`, or the centre.
+/// Where sample `s` of pixel `pixel` lies inside it (the scalar driver's patterns).
 #[inline(always)]
-fn sample_offset(frame: &Frame, pixel: u64, s: u32, stream: u64, centred: bool) -> Vec2 {
-    if centred {
-        return Vec2::splat(0.5);
-    }
-    let jitter = SampleStream::new(pixel, stream, frame.seed).next_2d();
+fn sample_offset(frame: &Frame, pixel: u64, s: u32) -> Vec2 {
+    let n = frame.samples_per_side;
     match frame.samples {
-        Samples::Stratified | Samples::One(_) => stratified_2d(s, frame.samples_per_side, jitter),
-        Samples::Pass(_) => jitter,
+        Samples::Stratified | Samples::One(_) if n == 1 => Vec2::splat(0.5),
+        Samples::Pass(0) => Vec2::splat(0.5),
+        Samples::Stratified | Samples::One(_) => {
+            stratified_2d(s, n, SampleStream::new(pixel, u64::from(s), frame.seed).next_2d())
+        }
+        Samples::Pass(k) => SampleStream::new(pixel, u64::from(k), frame.seed).next_2d(),
     }
 }
 
@@ -395,31 +428,53 @@ fn resolve_tile(
     tile_h: usize,
     band: &mut [FilmPixel],
 ) -> (u64, u64) {
+    let per_pixel = frame.samples.range(frame.samples_per_side).len();
+    let pixels = tile_w * tile_h;
     let (mut rejected, mut clamped) = (0, 0);
-    // A sample's raw record, or the pixel of one sample (the normal normalised): the
-    // scalar driver's accumulator from zero, so the same bits.
+    // One sample: its raw record, or the pixel of one sample (the normal normalised).
     let raw = matches!(frame.samples, Samples::One(_));
+    if per_pixel == 1 {
+        // The real-time case without the loop over samples (which cost 135 instructions a
+        // pixel, a tenth of the frame): the same sums from zero, so the same bits.
+        for ty in 0..tile_h {
+            let k0 = ty * tile_w;
+            let row = &mut band[ty * frame.width + x0..][..tile_w];
+            let colours = &sums.colour[k0..k0 + tile_w];
+            let (hits, normals) = (&sums.hit[k0..k0 + tile_w], &sums.normal[k0..k0 + tile_w]);
+            let (albedos, depths) = (&sums.albedo[k0..k0 + tile_w], &sums.depth[k0..k0 + tile_w]);
+            for (tx, out) in row.iter_mut().enumerate() {
+                let colour = Rgb::ZERO + admit(colours[tx], &mut rejected, &mut clamped).unwrap_or(Rgb::ZERO);
+                *out = if hits[tx] {
+                    let normal = Vec3::ZERO + normals[tx];
+                    FilmPixel {
+                        colour,
+                        normal: if raw { normal } else { normal.normalize_or_zero() },
+                        albedo: Rgb::ZERO + albedos[tx],
+                        depth: 0.0 + depths[tx],
+                        coverage: 1.0,
+                        ..FilmPixel::default()
+                    }
+                } else {
+                    FilmPixel { colour, ..FilmPixel::default() }
+                };
+            }
+        }
+        return (rejected, clamped);
+    }
+    // Each sample's record added in sample order, as a frame split into chunks of samples
+    // is merged (`SampleSum`).
+    let inv_samples = 1.0 / per_pixel as f32;
     for ty in 0..tile_h {
-        let k0 = ty * tile_w;
-        let row = &mut band[ty * frame.width + x0..][..tile_w];
-        let colours = &sums.colour[k0..k0 + tile_w];
-        let (hits, normals) = (&sums.hit[k0..k0 + tile_w], &sums.normal[k0..k0 + tile_w]);
-        let (albedos, depths) = (&sums.albedo[k0..k0 + tile_w], &sums.depth[k0..k0 + tile_w]);
-        for (tx, out) in row.iter_mut().enumerate() {
-            let colour = Rgb::ZERO + admit(colours[tx], &mut rejected, &mut clamped).unwrap_or(Rgb::ZERO);
-            *out = if hits[tx] {
-                let normal = Vec3::ZERO + normals[tx];
-                FilmPixel {
-                    colour,
-                    normal: if raw { normal } else { normal.normalize_or_zero() },
-                    albedo: Rgb::ZERO + albedos[tx],
-                    depth: 0.0 + depths[tx],
-                    coverage: 1.0,
-                    ..FilmPixel::default()
-                }
-            } else {
-                FilmPixel { colour, ..FilmPixel::default() }
-            };
+        for tx in 0..tile_w {
+            let p = ty * tile_w + tx;
+            let mut acc = PixelAccumulator::default();
+            for s in 0..per_pixel {
+                let k = s * pixels + p;
+                let colour = admit(sums.colour[k], &mut rejected, &mut clamped).unwrap_or(Rgb::ZERO);
+                let hit = sums.hit[k].then(|| (sums.normal[k], sums.albedo[k], sums.depth[k]));
+                acc.add_record(&PixelAccumulator::one(colour, hit).record());
+            }
+            band[ty * frame.width + x0 + tx] = acc.finish(inv_samples);
         }
     }
     (rejected, clamped)

@@ -1,11 +1,12 @@
 //! Whitted ray tracing (DESIGN.md §1; the thesis's backward ray tracer): a frame of it.
 //!
-//! A kernel traces one sample per pixel — the centre, one sample of a progressive pass, or
-//! sample s of the N×N stratified pattern — by [`Tracer`] (`tracer.rs`: Phong with shadow
-//! rays, reflection and refraction on an explicit stack) or by the batched kernel
-//! (`batch.rs`), into the film with the first hit's AOVs. A supersampled frame traces its N²
-//! samples one after the other and adds their records in sample order ([`SampleSum`]), which
-//! is also how the samples of a frame split into chunks are merged (`chunk.rs`). Bands of rows
+//! Each pixel's samples (N×N stratified, one sample of a progressive pass, or sample s of the
+//! N×N pattern alone) are traced by [`Tracer`] (`tracer.rs`: Phong with shadow rays,
+//! reflection and refraction on an explicit stack) or by the batched kernel (`batch.rs`), and
+//! averaged into the film with the first hit's AOVs: each sample's record added in sample
+//! order ([`SampleSum`]'s step), which is also how the samples of a frame split into chunks
+//! are merged (`chunk.rs`). A sample's values do not depend on the samples traced beside it
+//! (every ray's answer is the single-ray kernel's; lanes are independent). Bands of rows
 //! go to threads through the shared band driver; inside a band pixels are visited in 8×8
 //! blocks for ray coherence. Every sample position is `hash(pixel, sample, seed)`: the image
 //! does not depend on the thread count.
@@ -51,15 +52,14 @@ pub enum Samples {
 }
 
 impl Samples {
-    /// The random stream index of the kernels' one sample, and whether it goes through the
-    /// pixel centre (`n` samples per side). Kernels trace one sample per pixel:
-    /// [`Samples::Stratified`] reaches them only when `n` is 1.
+    /// The samples of the `n`²-sample stratified pattern a frame of these samples traces per
+    /// pixel (one for a progressive pass).
     #[inline]
-    fn stream(self, n: u32) -> (u32, u64, bool) {
+    fn range(self, n: u32) -> std::ops::Range<u32> {
         match self {
-            Samples::Stratified => (0, 0, n == 1),
-            Samples::One(s) => (s, u64::from(s), n == 1),
-            Samples::Pass(k) => (0, u64::from(k), k == 0),
+            Samples::Stratified => 0..n * n,
+            Samples::One(s) => s..s + 1,
+            Samples::Pass(_) => 0..1,
         }
     }
 }
@@ -89,9 +89,6 @@ pub fn render(
         settings.kernel = WhittedKernel::Scalar;
     }
     settings.validate()?;
-    if samples == Samples::Stratified && settings.samples_per_side > 1 {
-        return render_supersampled(world, camera, image, &settings, hooks, film);
-    }
     if settings.kernel != WhittedKernel::Scalar
         && let Some(aligned) = aligned_window(image)
     {
@@ -116,46 +113,52 @@ pub fn render(
         let y0 = band_index * BAND_ROWS;
         let rows = band.len() / w;
         let n = settings.samples_per_side;
-        let (s, index, centre) = samples.stream(n);
+        let range = samples.range(n);
+        let inv_samples = 1.0 / range.len() as f32;
         for bx in (0..w).step_by(BLOCK_COLS) {
             for row in 0..rows {
                 let y = y0 + row;
                 for x in bx..(bx + BLOCK_COLS).min(w) {
                     let pixel_index = image.pixel_id(x, y);
                     let mut acc = PixelAccumulator::default();
-                    let (offset, lens) = if centre && !rays.samples_lens() {
-                        (Vec2::splat(0.5), None)
-                    } else {
-                        let mut stream = SampleStream::new(pixel_index, index, image.seed);
-                        let jitter = stream.next_2d();
-                        let offset = match samples {
-                            _ if centre => Vec2::splat(0.5),
-                            Samples::Stratified | Samples::One(_) => stratified_2d(s, n, jitter),
-                            Samples::Pass(_) => jitter,
+                    for s in range.clone() {
+                        let (index, centre) = match samples {
+                            Samples::Stratified | Samples::One(_) => (u64::from(s), n == 1),
+                            Samples::Pass(k) => (u64::from(k), k == 0),
                         };
-                        (offset, rays.samples_lens().then(|| stream.next_2d()))
-                    };
-                    let p = Vec2::new((film_x + x) as f32, (film_y + y) as f32) + offset;
-                    let ray = lens.map_or_else(|| rays.ray(p), |u| rays.ray_through_lens(p, u));
-                    let cos = ray.dir.dot(forward);
-                    let (c, first) = tracer.trace(world, ray, centre_cone * cos * cos.sqrt(), &settings);
-                    if !c.is_finite() {
-                        rejected += 1;
-                    } else if c.max_element() > MAX_SAMPLE_RADIANCE {
-                        acc.colour += c.min(Rgb::splat(MAX_SAMPLE_RADIANCE));
-                        clamped += 1;
-                    } else {
-                        acc.colour += c;
-                    }
-                    if let Some(f) = first {
-                        acc.hits += 1;
-                        acc.normal += f.normal;
-                        acc.albedo += f.albedo;
-                        acc.depth += rays.depth(f.position);
+                        let (offset, lens) = if centre && !rays.samples_lens() {
+                            (Vec2::splat(0.5), None)
+                        } else {
+                            let mut stream = SampleStream::new(pixel_index, index, image.seed);
+                            let jitter = stream.next_2d();
+                            let offset = match samples {
+                                _ if centre => Vec2::splat(0.5),
+                                Samples::Stratified | Samples::One(_) => stratified_2d(s, n, jitter),
+                                Samples::Pass(_) => jitter,
+                            };
+                            (offset, rays.samples_lens().then(|| stream.next_2d()))
+                        };
+                        let p = Vec2::new((film_x + x) as f32, (film_y + y) as f32) + offset;
+                        let ray = lens.map_or_else(|| rays.ray(p), |u| rays.ray_through_lens(p, u));
+                        let cos = ray.dir.dot(forward);
+                        let (c, first) = tracer.trace(world, ray, centre_cone * cos * cos.sqrt(), &settings);
+                        let colour = if !c.is_finite() {
+                            rejected += 1;
+                            Rgb::ZERO
+                        } else if c.max_element() > MAX_SAMPLE_RADIANCE {
+                            clamped += 1;
+                            c.min(Rgb::splat(MAX_SAMPLE_RADIANCE))
+                        } else {
+                            c
+                        };
+                        let hit = first.map(|f| (f.normal, f.albedo, rays.depth(f.position)));
+                        // Each sample's record added in sample order, as a frame split into
+                        // chunks of samples is merged (`SampleSum`).
+                        acc.add_record(&PixelAccumulator::one(colour, hit).record());
                     }
                     band[row * w + x] = match samples {
                         Samples::One(_) => acc.record(),
-                        _ => acc.finish(1.0),
+                        _ => acc.finish(inv_samples),
                     };
                 }
             }
@@ -185,7 +188,7 @@ pub fn render(
         rejected_samples: totals.rejected,
         clamped_samples: totals.clamped,
         passes: 1,
-        samples_per_pixel: 1,
+        samples_per_pixel: samples.range(settings.samples_per_side).len() as u32,
         ..FrameStats::default()
     })
 }
@@ -237,40 +240,6 @@ fn render_window(
     Ok(stats)
 }
 
-/// A supersampled frame: every sample of the pattern traced alone ([`Samples::One`]) and
-/// its records added in sample order ([`SampleSum`]).
-fn render_supersampled(
-    world: &World,
-    camera: &Camera,
-    image: &ImageSettings,
-    settings: &WhittedSettings,
-    hooks: &Hooks,
-    film: &mut Film,
-) -> Result<FrameStats, RenderError> {
-    let start = Instant::now();
-    let n = settings.samples_per_side;
-    let mut sum = SampleSum::try_new(image.pixels())?;
-    let mut scratch = Film::try_new(image.width, image.height)?;
-    let mut stats = FrameStats::default();
-    hooks.over_passes(u64::from(n * n), |hooks| -> Result<(), RenderError> {
-        for s in 0..n * n {
-            let pass = render(world, camera, image, settings, Samples::One(s), hooks, &mut scratch)?;
-            sum.add(&scratch.pixels);
-            stats.rays.add(&pass.rays);
-            stats.rejected_samples += pass.rejected_samples;
-            stats.clamped_samples += pass.clamped_samples;
-        }
-        Ok(())
-    })?;
-    film.reset(image.width, image.height)?;
-    sum.finish(n * n, &mut film.pixels);
-    stats.elapsed = start.elapsed();
-    stats.stages = vec![("trace", stats.elapsed)];
-    stats.passes = 1;
-    stats.samples_per_pixel = n * n;
-    Ok(stats)
-}
-
 /// The running sums of a supersampled frame's pixels, one sample's records at a time (each
 /// pixel's record as [`Samples::One`] leaves it in the film), in sample order.
 pub struct SampleSum {
@@ -292,15 +261,7 @@ impl SampleSum {
     /// Add one sample's records (a film of [`Samples::One`]).
     pub fn add(&mut self, records: &[FilmPixel]) {
         use rayon::prelude::*;
-        self.pixels.par_iter_mut().zip(records).for_each(|(acc, r)| {
-            acc.colour += r.colour;
-            if r.coverage > 0.0 {
-                acc.hits += 1;
-                acc.normal += r.normal;
-                acc.albedo += r.albedo;
-                acc.depth += r.depth;
-            }
-        });
+        self.pixels.par_iter_mut().zip(records).for_each(|(acc, r)| acc.add_record(r));
     }
 
     /// The pixels of `samples` samples.
@@ -321,6 +282,32 @@ struct PixelAccumulator {
 }
 
 impl PixelAccumulator {
+    /// One sample: its colour (as admitted) and, when it hit, the first hit's normal, albedo
+    /// and depth.
+    #[inline]
+    fn one(colour: Rgb, hit: Option<(Vec3, Rgb, f32)>) -> Self {
+        let mut acc = PixelAccumulator { colour: Rgb::ZERO + colour, ..PixelAccumulator::default() };
+        if let Some((normal, albedo, depth)) = hit {
+            acc.hits = 1;
+            acc.normal = Vec3::ZERO + normal;
+            acc.albedo = Rgb::ZERO + albedo;
+            acc.depth = 0.0 + depth;
+        }
+        acc
+    }
+
+    /// Add one sample's record ([`PixelAccumulator::record`]).
+    #[inline]
+    fn add_record(&mut self, r: &FilmPixel) {
+        self.colour += r.colour;
+        if r.coverage > 0.0 {
+            self.hits += 1;
+            self.normal += r.normal;
+            self.albedo += r.albedo;
+            self.depth += r.depth;
+        }
+    }
+
     /// One sample's raw record ([`Samples::One`]): its colour and, when it hit, the first
     /// hit's normal as it is summed (not normalised), albedo, depth and coverage 1.
     fn record(&self) -> FilmPixel {
