@@ -422,26 +422,37 @@ pub struct Merged {
     pub description: String,
 }
 
-/// Check that `chunks` (read from the paths beside them) are every chunk of one frame, each
-/// once, and put them together: shares of samples added in index order, tiles placed.
+/// Where a chunk read by [`merge`] was and what it held, once its part has been taken in.
+struct Seen {
+    path: PathBuf,
+    first_unit: u64,
+    end_unit: u64,
+}
+
+/// What the chunks read so far add up to.
+enum Sum {
+    /// Path sums: shares added (integers: in any order), tiles placed.
+    Path(Option<PathSums>),
+    /// Whitted: finished pixels placed (tiles, or a whole frame), the records of shares of the
+    /// samples kept by chunk index (they are added in sample order at the end).
+    Whitted { pixels: Vec<FilmPixel>, records: Vec<Option<Vec<FilmPixel>>> },
+}
+
+/// Check that `chunks` (read one after another from the paths beside them) are every chunk of
+/// one frame, each once, and put them together: shares of units added, tiles placed. Each
+/// chunk is taken in as it is read (a Whitted share of samples is kept until all are read: its
+/// records are added in sample order), so a merge holds about one chunk besides the frame.
 ///
 /// # Errors
-/// [`ChunkError`] naming the files: no chunks; chunks of another frame (hash, glint version,
-/// kind, split, chunk count, size, units, settings) than the first; two files of one chunk; a
-/// missing chunk; shares whose units do not tile the frame's, tiles not where the split puts
-/// them.
-pub fn merge(chunks: Vec<(PathBuf, Chunk)>) -> Result<Merged, ChunkError> {
-    let Some((first_path, first)) = chunks.first() else {
-        return Err(ChunkError { message: "no chunk files to merge".into() });
-    };
-    let (first_path, first) = (first_path.clone(), first.clone());
-    let mut slots: Vec<Option<(PathBuf, Chunk)>> = vec![None; first.count as usize];
-    let differs = |path: &Path, what: &str, a: &dyn fmt::Display, b: &dyn fmt::Display| ChunkError {
-        message: format!(
-            "{} and {} are not chunks of one frame: {what} {a} vs {b}",
-            first_path.display(),
-            path.display()
-        ),
+/// [`ChunkError`] naming the files: one that cannot be read; no chunks; chunks of another
+/// frame (hash, glint version, kind, split, chunk count, size, units, settings) than the
+/// first; two files of one chunk; a missing chunk; shares whose units do not tile the
+/// frame's, tiles not where the split puts them.
+pub fn merge(chunks: impl IntoIterator<Item = Result<(PathBuf, Chunk), ChunkError>>) -> Result<Merged, ChunkError> {
+    let mut chunks = chunks.into_iter();
+    let (first_path, mut first) = match chunks.next() {
+        Some(c) => c?,
+        None => return Err(ChunkError { message: "no chunk files to merge".into() }),
     };
     let kind = |c: &Chunk| match &c.part {
         Part::Path(s) if s.filtered => "filtered path",
@@ -449,85 +460,8 @@ pub fn merge(chunks: Vec<(PathBuf, Chunk)>) -> Result<Merged, ChunkError> {
         Part::Whitted(_) => "whitted",
     };
     let size = |c: &Chunk| format!("{}x{}", c.frame.0, c.frame.1);
-    for (path, c) in chunks {
-        if c.hash != first.hash {
-            return Err(differs(&path, "scene and settings hash", &first.hash, &c.hash));
-        }
-        if c.version != first.version {
-            return Err(differs(&path, "glint version", &first.version, &c.version));
-        }
-        if c.split != first.split {
-            return Err(differs(&path, "split into", &first.split.name(), &c.split.name()));
-        }
-        if c.count != first.count {
-            return Err(differs(&path, "chunk count", &first.count, &c.count));
-        }
-        if kind(&c) != kind(&first) {
-            return Err(differs(&path, "kind of frame", &kind(&first), &kind(&c)));
-        }
-        if size(&c) != size(&first) || c.total_units != first.total_units {
-            return Err(differs(&path, "frame size and units", &size(&first), &size(&c)));
-        }
-        if c.settings != first.settings {
-            return Err(differs(
-                &path,
-                "output settings",
-                &format!("{:?}", first.settings),
-                &format!("{:?}", c.settings),
-            ));
-        }
-        let slot = &mut slots[c.index as usize];
-        if let Some((other, _)) = slot {
-            return Err(ChunkError {
-                message: format!("{} and {} are both chunk {}/{}", other.display(), path.display(), c.index, c.count),
-            });
-        }
-        *slot = Some((path, c));
-    }
-    let missing: Vec<String> =
-        slots.iter().enumerate().filter(|(_, s)| s.is_none()).map(|(i, _)| i.to_string()).collect();
-    if !missing.is_empty() {
-        return Err(ChunkError {
-            message: format!(
-                "chunk{} {} of {} missing (the files given hold the others, e.g. {})",
-                if missing.len() == 1 { "" } else { "s" },
-                missing.join(", "),
-                first.count,
-                first_path.display()
-            ),
-        });
-    }
-    let chunks: Vec<(PathBuf, Chunk)> = slots.into_iter().flatten().collect();
     let (w, h) = first.frame;
     let whole = Region::whole(w, h);
-    // Where each chunk must lie and which units it must hold.
-    let mut next_unit = 0;
-    for (path, c) in &chunks {
-        let (region, units) = match c.split {
-            Split::Samples => (whole, next_unit..c.end_unit),
-            Split::Tiles => (Region::tile(w, h, c.index, c.count).map_err(|e| fail(path, e))?, 0..first.total_units),
-        };
-        if c.region != region {
-            return Err(fail(
-                path,
-                format!("holds the pixels {:?}, where the {} split puts {region:?}", c.region, c.split.name()),
-            ));
-        }
-        if c.first_unit != units.start || c.end_unit != units.end {
-            return Err(fail(
-                path,
-                format!("holds units {}..{}, expected {}..{}", c.first_unit, c.end_unit, units.start, units.end),
-            ));
-        }
-        next_unit = c.end_unit;
-    }
-    if next_unit != first.total_units {
-        return Err(fail(
-            &first_path,
-            format!("the chunks hold {next_unit} of the frame's {} units", first.total_units),
-        ));
-    }
-    let mut film = Film::try_new(1, 1).map_err(|e| fail(&first_path, e))?;
     let units_name = match &first.part {
         Part::Path(s) if s.filtered => "passes",
         _ => "samples per pixel",
@@ -544,76 +478,175 @@ pub fn merge(chunks: Vec<(PathBuf, Chunk)>) -> Result<Merged, ChunkError> {
         kind(&first),
         first.total_units
     );
-    match first.part {
-        Part::Path(_) => merge_path(chunks, whole, &mut film)?,
-        Part::Whitted(_) => merge_whitted(chunks, whole, first.total_units, &mut film)?,
-    }
-    Ok(Merged { film, settings: first.settings, description })
-}
-
-/// The film of a path frame's chunks (checked by [`merge`]).
-fn merge_path(chunks: Vec<(PathBuf, Chunk)>, whole: Region, film: &mut Film) -> Result<(), ChunkError> {
-    let mut total: Option<PathSums> = None;
-    for (path, c) in chunks {
-        let Part::Path(sums) = c.part else { continue };
-        if (sums.width, sums.height) != (c.region.width, c.region.height) {
-            return Err(fail(&path, "its sums are not of its region's size"));
+    let (first_kind, first_size) = (kind(&first), size(&first));
+    let mut slots: Vec<Option<Seen>> = Vec::new();
+    slots.resize_with(first.count as usize, || None);
+    let mut sum = match first.part {
+        Part::Path(_) => Sum::Path(None),
+        Part::Whitted(_) => Sum::Whitted {
+            pixels: vec![FilmPixel::default(); whole.pixels()],
+            records: vec![None; first.count as usize],
+        },
+    };
+    let settings = first.settings.clone();
+    // The first chunk is checked (against itself) and taken in like the others: its header is
+    // kept (with an empty part) to check the others against.
+    let placeholder =
+        Part::Path(PathSums { width: 0, height: 0, filtered: false, units: 0, pixels: Vec::new(), first: None });
+    let first_part = std::mem::replace(&mut first.part, placeholder);
+    let header = first;
+    let mut next = Some((first_path.clone(), Chunk { part: first_part, ..header.clone() }));
+    while let Some((path, c)) = next.take() {
+        let differs = |what: &str, a: &dyn fmt::Display, b: &dyn fmt::Display| ChunkError {
+            message: format!(
+                "{} and {} are not chunks of one frame: {what} {a} vs {b}",
+                first_path.display(),
+                path.display()
+            ),
+        };
+        if c.hash != header.hash {
+            return Err(differs("scene and settings hash", &header.hash, &c.hash));
         }
-        match (&mut total, c.split) {
-            (None, Split::Samples) => total = Some(sums),
-            (Some(t), Split::Samples) => t.add(&sums).map_err(|e| fail(&path, e))?,
-            (t, Split::Tiles) => {
-                let t = t.get_or_insert_with(|| PathSums {
-                    width: whole.width,
-                    height: whole.height,
-                    filtered: sums.filtered,
-                    units: sums.units,
-                    pixels: vec![PixelSums::default(); whole.pixels()],
-                    first: Some(vec![FirstSample::default(); whole.pixels()]),
-                });
-                place(&mut t.pixels, whole.width as usize, c.region, &sums.pixels);
-                let (Some(all), Some(part)) = (t.first.as_mut(), sums.first.as_ref()) else {
-                    return Err(fail(&path, "a tile without its first sample's AOVs"));
-                };
-                place(all, whole.width as usize, c.region, part);
+        if c.version != header.version {
+            return Err(differs("glint version", &header.version, &c.version));
+        }
+        if c.split != header.split {
+            return Err(differs("split into", &header.split.name(), &c.split.name()));
+        }
+        if c.count != header.count {
+            return Err(differs("chunk count", &header.count, &c.count));
+        }
+        if kind(&c) != first_kind {
+            return Err(differs("kind of frame", &first_kind, &kind(&c)));
+        }
+        if size(&c) != first_size || c.total_units != header.total_units {
+            return Err(differs("frame size and units", &first_size, &size(&c)));
+        }
+        if c.settings != settings {
+            return Err(differs("output settings", &format!("{settings:?}"), &format!("{:?}", c.settings)));
+        }
+        if let Some(other) = &slots[c.index as usize] {
+            return Err(ChunkError {
+                message: format!(
+                    "{} and {} are both chunk {}/{}",
+                    other.path.display(),
+                    path.display(),
+                    c.index,
+                    c.count
+                ),
+            });
+        }
+        let region = match c.split {
+            Split::Samples => whole,
+            Split::Tiles => Region::tile(w, h, c.index, c.count).map_err(|e| fail(&path, e))?,
+        };
+        if c.region != region {
+            return Err(fail(
+                &path,
+                format!("holds the pixels {:?}, where the {} split puts {region:?}", c.region, c.split.name()),
+            ));
+        }
+        let seen = Seen { path, first_unit: c.first_unit, end_unit: c.end_unit };
+        let index = c.index as usize;
+        take_in(&mut sum, &seen.path, c, whole)?;
+        slots[index] = Some(seen);
+        next = chunks.next().transpose()?;
+    }
+    let missing: Vec<String> =
+        slots.iter().enumerate().filter(|(_, s)| s.is_none()).map(|(i, _)| i.to_string()).collect();
+    if !missing.is_empty() {
+        return Err(ChunkError {
+            message: format!(
+                "chunk{} {} of {} missing (the files given hold the others, e.g. {})",
+                if missing.len() == 1 { "" } else { "s" },
+                missing.join(", "),
+                header.count,
+                first_path.display()
+            ),
+        });
+    }
+    // Shares follow each other in index order; tiles hold every unit.
+    let mut next_unit = 0;
+    for seen in slots.iter().flatten() {
+        let units = match header.split {
+            Split::Samples => next_unit..seen.end_unit,
+            Split::Tiles => 0..header.total_units,
+        };
+        if seen.first_unit != units.start || seen.end_unit != units.end {
+            return Err(fail(
+                &seen.path,
+                format!("holds units {}..{}, expected {}..{}", seen.first_unit, seen.end_unit, units.start, units.end),
+            ));
+        }
+        next_unit = seen.end_unit;
+    }
+    if next_unit != header.total_units {
+        return Err(fail(
+            &first_path,
+            format!("the chunks hold {next_unit} of the frame's {} units", header.total_units),
+        ));
+    }
+    let mut film = Film::try_new(1, 1).map_err(|e| fail(&first_path, e))?;
+    match sum {
+        Sum::Path(sums) => {
+            let sums = sums.ok_or_else(|| ChunkError { message: "no chunk files to merge".into() })?;
+            sums.resolve(&mut film).map_err(|e| fail(&first_path, e))?;
+        }
+        Sum::Whitted { pixels, records } => {
+            film.reset(w, h).map_err(|e| fail(&first_path, e))?;
+            film.pixels = pixels;
+            if records.iter().any(Option::is_some) {
+                let mut samples = SampleSum::try_new(whole.pixels()).map_err(|e| fail(&first_path, e))?;
+                for one in records.iter().flatten().flat_map(|r| r.chunks_exact(whole.pixels().max(1))) {
+                    samples.add(one);
+                }
+                samples.finish(header.total_units as u32, &mut film.pixels);
             }
         }
     }
-    let sums = total.ok_or_else(|| ChunkError { message: "no chunk files to merge".into() })?;
-    sums.resolve(film).map_err(|e| ChunkError { message: e.to_string() })
+    Ok(Merged { film, settings, description })
 }
 
-/// The film of a Whitted frame's chunks (checked by [`merge`]): tiles placed, a whole frame
-/// taken as it is, shares of samples added in sample order as the single run adds them.
-fn merge_whitted(
-    chunks: Vec<(PathBuf, Chunk)>,
-    whole: Region,
-    samples: u64,
-    film: &mut Film,
-) -> Result<(), ChunkError> {
-    let some_path = chunks.first().map(|(p, _)| p.clone()).unwrap_or_default();
-    film.reset(whole.width, whole.height).map_err(|e| fail(&some_path, e))?;
-    let mut sum: Option<SampleSum> = None;
-    for (path, c) in chunks {
-        let Part::Whitted(part) = c.part else { continue };
-        let records = if part.raw { c.end_unit - c.first_unit } else { 1 };
-        if part.width != c.region.width || part.pixels.len() as u64 != c.region.pixels() as u64 * records {
-            return Err(fail(&path, "its pixels are not of its region's size"));
+/// Take chunk `c`'s part (checked against the frame by [`merge`]) into `sum`.
+fn take_in(sum: &mut Sum, path: &Path, c: Chunk, whole: Region) -> Result<(), ChunkError> {
+    let width = whole.width as usize;
+    match (sum, c.part) {
+        (Sum::Path(total), Part::Path(sums)) => {
+            if (sums.width, sums.height) != (c.region.width, c.region.height) {
+                return Err(fail(path, "its sums are not of its region's size"));
+            }
+            match (total, c.split) {
+                (total @ None, Split::Samples) => *total = Some(sums),
+                (Some(t), Split::Samples) => t.add(&sums).map_err(|e| fail(path, e))?,
+                (t, Split::Tiles) => {
+                    let t = t.get_or_insert_with(|| PathSums {
+                        width: whole.width,
+                        height: whole.height,
+                        filtered: sums.filtered,
+                        units: sums.units,
+                        pixels: vec![PixelSums::default(); whole.pixels()],
+                        first: Some(vec![FirstSample::default(); whole.pixels()]),
+                    });
+                    place(&mut t.pixels, width, c.region, &sums.pixels);
+                    let (Some(all), Some(part)) = (t.first.as_mut(), sums.first.as_ref()) else {
+                        return Err(fail(path, "a tile without its first sample's AOVs"));
+                    };
+                    place(all, width, c.region, part);
+                }
+            }
         }
-        if !part.raw {
-            place(&mut film.pixels, whole.width as usize, c.region, &part.pixels);
-            continue;
+        (Sum::Whitted { pixels, records }, Part::Whitted(part)) => {
+            let count = if part.raw { c.end_unit - c.first_unit } else { 1 };
+            if part.width != c.region.width || part.pixels.len() as u64 != c.region.pixels() as u64 * count {
+                return Err(fail(path, "its pixels are not of its region's size"));
+            }
+            if part.raw {
+                records[c.index as usize] = Some(part.pixels);
+            } else {
+                place(pixels, width, c.region, &part.pixels);
+            }
         }
-        let sum = match &mut sum {
-            Some(s) => s,
-            None => sum.insert(SampleSum::try_new(whole.pixels()).map_err(|e| fail(&path, e))?),
-        };
-        for one in part.pixels.chunks_exact(whole.pixels().max(1)) {
-            sum.add(one);
-        }
-    }
-    if let Some(sum) = sum {
-        sum.finish(samples as u32, &mut film.pixels);
+        _ => return Err(fail(path, "a chunk of another kind of frame")),
     }
     Ok(())
 }
@@ -724,13 +757,13 @@ mod tests {
     #[test]
     fn merging_adds_every_chunk_once_and_refuses_the_rest() {
         let all: Vec<_> = (0..3).map(|i| chunk(i, 3, 3)).collect();
-        let merged = merge(all.iter().rev().cloned().collect()).expect("merge");
+        let merged = merge(all.iter().rev().cloned().map(Ok)).expect("merge");
         let p = merged.film.pixels[0];
         assert_eq!(p.samples, 6.0);
         assert_eq!(p.coverage, 0.5);
         assert_eq!(p.depth, 2.5, "the first sample's AOVs");
         let refused = |set: Vec<(PathBuf, Chunk)>, needle: &str| {
-            let e = merge(set).expect_err("refused").to_string();
+            let e = merge(set.into_iter().map(Ok)).expect_err("refused").to_string();
             assert!(e.contains(needle), "{e}");
         };
         let mut wide = all.clone();

@@ -20,11 +20,8 @@ pub fn run(args: &MergeArgs) -> Result<()> {
             }
         }
     }
-    let mut chunks = Vec::with_capacity(args.inputs.len());
-    for input in &args.inputs {
-        chunks.push((input.clone(), Chunk::read(input)?));
-    }
-    let merged = chunk::merge(chunks)?;
+    // Read one after another as the merge takes them in: about one chunk in memory at a time.
+    let merged = chunk::merge(args.inputs.iter().map(|p| Chunk::read(p).map(|c| (p.clone(), c))))?;
     let options = png_options_from(&merged.settings, &args.inputs[0])?;
     let summary = format!("merged {} in {:.3} s", merged.description, start.elapsed().as_secs_f64());
     write_film(&args.output, kind, &merged.film, &options, &summary, args.quiet)?;
