@@ -297,7 +297,12 @@ fn albedo<I: Isa>(s: &Shading, m: &Materials8<I>, surf: &Surfaces8<I>) -> V8<I> 
 pub(super) fn sky8<I: Isa>(sky: &Sky, dir: V8<I>, spread: F8<I>, lanes: M8<I>) -> V8<I> {
     match sky {
         Sky::Colour(c) => V8::splat(*c),
-        _ => V8::from_fn(|i| if lanes.lane(i) { sky.radiance_filtered(dir.lane(i), spread[i]) } else { Rgb::ZERO }),
+        _ => {
+            // Eight lookups across lanes (a cube map's; others lane by lane): the same values.
+            let dirs = std::array::from_fn(|i| dir.lane(i));
+            let seen = sky.radiance_filtered8(&dirs, &spread.to_array(), lanes.bits() as u8);
+            V8::from_fn(|i| seen[i])
+        }
     }
 }
 

@@ -58,7 +58,7 @@ pub fn cube_direction(face: CubeFace, s: f32, t: f32) -> Vec3 {
 
 /// The OpenGL table in cube coordinates: (face index, s, t, |major axis|).
 #[inline(always)]
-fn face_st_cube(c: Vec3) -> (usize, f32, f32, f32) {
+pub(super) fn face_st_cube(c: Vec3) -> (usize, f32, f32, f32) {
     let a = c.abs();
     let (face, sc, tc, ma) = if a.x >= a.y && a.x >= a.z {
         if c.x > 0.0 { (0, -c.z, -c.y, a.x) } else { (1, c.z, -c.y, a.x) }
@@ -92,8 +92,8 @@ pub struct CubeMap {
     /// Finest first; the last level has 1×1 faces.
     levels: Vec<[Level; 6]>,
     /// log2(face size / 2) and face size / 2, for mip level selection.
-    log2_half_size: f32,
-    half_size: f32,
+    pub(super) log2_half_size: f32,
+    pub(super) half_size: f32,
 }
 
 impl CubeMap {
@@ -190,6 +190,12 @@ impl CubeMap {
     /// The finest level's six faces, borders included (what [`CubeMap::lookup`] reads).
     pub(crate) fn finest(&self) -> &[Level; 6] {
         &self.levels[0]
+    }
+
+    /// Face `face` of level `level` (finest first).
+    #[inline(always)]
+    pub(super) fn level(&self, level: usize, face: usize) -> &Level {
+        &self.levels[level][face]
     }
 
     /// The finest level of `face`, as stored (t = 0 at the top).

@@ -154,8 +154,7 @@ impl Level {
         // Shifted by one texel into the bordered grid: x = u − ½ + 1 ∈ [½, width + ½], so the
         // left tap is ⌊x⌋ ∈ [0, width] and the right one ≤ width + 1 < stride; ⌊x⌋ of a
         // positive number is a truncation. NaN becomes ½ (a NaN direction reads texel 0).
-        let x = clamp_nan_low(u + 0.5, 0.5, self.size.x + 0.5);
-        let y = clamp_nan_low(v + 0.5, 0.5, self.size.y + 0.5);
+        let (x, y) = Level::bilinear_coordinates(u, v, self.size.x, self.size.y);
         // SAFETY: x and y are finite and in [½, size + ½] (`clamp_nan_low` returns a bound for
         // NaN or out-of-range input), so the truncations fit a u32 and give xi ≤ width, yi ≤ height;
         // the taps at columns xi, xi + 1 ≤ width + 1 of rows yi, yi + 1 ≤ height + 1 lie inside
@@ -170,6 +169,22 @@ impl Level {
             let b = self.texels.get_unchecked(i + self.stride..i + self.stride + 2);
             filter_taps([t[0], t[1], b[0], b[1]], fx, fy)
         }
+    }
+
+    /// Where [`Level::bilinear`] reads (`u`, `v`) in a level of `width × height` texels: the
+    /// coordinates shifted by one texel into the bordered grid and clamped to
+    /// [½, size + ½], NaN to ½ (so the left tap ⌊x⌋ ∈ [0, width], the right one ≤ width + 1).
+    #[inline(always)]
+    pub(crate) fn bilinear_coordinates(u: f32, v: f32, width: f32, height: f32) -> (f32, f32) {
+        (clamp_nan_low(u + 0.5, 0.5, width + 0.5), clamp_nan_low(v + 0.5, 0.5, height + 0.5))
+    }
+
+    /// The four taps (top left, top right, bottom left, bottom right) whose top left is texel
+    /// `index` of the bordered grid.
+    #[inline(always)]
+    pub(crate) fn taps(&self, index: usize) -> [u32; 4] {
+        let (t, b) = (&self.texels[index..index + 2], &self.texels[index + self.stride..index + self.stride + 2]);
+        [t[0], t[1], b[0], b[1]]
     }
 
     /// The next coarser level's interior: each side halved (at least 1), every new texel the
@@ -242,8 +257,14 @@ pub(crate) fn mip_blend(lambda: f32, count: usize) -> (usize, f32) {
     let lambda = lambda.min((count - 1) as f32);
     let l0 = lambda as usize;
     let frac = lambda - l0 as f32;
-    let w = ((frac - SINGLE_LEVEL_BAND) * (1.0 / (1.0 - 2.0 * SINGLE_LEVEL_BAND))).clamp(0.0, 1.0);
-    (l0, w)
+    (l0, blend_weight(frac))
+}
+
+/// The weight of the coarser level at fraction `frac` of the way between two (see
+/// [`mip_blend`]).
+#[inline(always)]
+pub(crate) fn blend_weight(frac: f32) -> f32 {
+    ((frac - SINGLE_LEVEL_BAND) * (1.0 / (1.0 - 2.0 * SINGLE_LEVEL_BAND))).clamp(0.0, 1.0)
 }
 
 /// Number of levels of a pyramid whose finest level is `size` texels on its longer side.

@@ -9,12 +9,14 @@
 //! directions toward it in proportion to its luminance (the sky as a light of the path tracer).
 
 mod cube;
+mod lanes;
 mod latlong;
 mod level;
 mod sampling;
 mod sh;
 
 pub use cube::{CubeFace, CubeMap, cube_direction, cube_face_st};
+use lanes::LANES;
 pub use latlong::{LatLongMap, latlong_direction, latlong_uv};
 pub use sampling::{SkySample, SkySampler};
 pub use sh::IrradianceSh;
@@ -151,6 +153,32 @@ impl Sky {
                 map.lookup_filtered(transform.to_map(dir), cone_angle) * transform.intensity
             }
         }
+    }
+
+    /// [`Sky::radiance_filtered`] of the directions and footprints of the lanes set in
+    /// `active` (bit i: lane i; the others are zero): the same values, with a cube map's eight
+    /// lookups done across lanes ([`CubeMap::lookup_filtered8`]).
+    pub fn radiance_filtered8(&self, dirs: &[Vec3; LANES], cones: &[f32; LANES], active: u8) -> [Rgb; LANES] {
+        let mut out = [Rgb::ZERO; LANES];
+        match self {
+            Sky::CubeMap { map, transform } if active.count_ones() > 1 => {
+                let map_dirs = dirs.map(|d| transform.to_map(d));
+                let seen = map.lookup_filtered8(&map_dirs, cones);
+                for (i, (o, c)) in out.iter_mut().zip(seen).enumerate() {
+                    if active >> i & 1 != 0 {
+                        *o = c * transform.intensity;
+                    }
+                }
+            }
+            _ => {
+                for (i, o) in out.iter_mut().enumerate() {
+                    if active >> i & 1 != 0 {
+                        *o = self.radiance_filtered(dirs[i], cones[i]);
+                    }
+                }
+            }
+        }
+        out
     }
 
     /// True for skies that are the same in every direction.

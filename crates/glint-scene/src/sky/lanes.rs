@@ -1,0 +1,212 @@
+//! Eight sky lookups at once (issue 19): [`CubeMap::lookup_filtered8`] does what
+//! [`CubeMap::lookup_filtered`] does for each of eight directions, bit for bit, with the
+//! arithmetic across lanes. Each stage is a loop over the eight lanes that the compiler turns
+//! into one vector operation per step (the AVX2 + FMA copy is chosen at run time; Rust never
+//! fuses a multiply and an add by itself, so both copies compute the scalar code's values):
+//!
+//! 1. the face and its (s, t) by the major axis, as selects rather than branches;
+//! 2. the level of detail from bit-trick logs and the "brilinear" blend (`mip_blend`'s
+//!    arithmetic), giving each lane the level it reads (`lo`), the next one (`hi`) and the
+//!    weight between them;
+//! 3. each level's texel coordinates, fractions and index (the bordered grid of [`Level`]);
+//! 4. the four RGB9E5 taps of both levels, loaded lane by lane (the only scalar step: a lane
+//!    reads its own face and level);
+//! 5. decoding and bilinear weighting in the order `filter_taps` adds them, then the blend.
+//!
+//! When some lane blends two levels, every lane loads a second one (and the others drop it);
+//! when none does (neighbouring footprints are alike), the second level is not read.
+
+use super::cube::{CubeMap, face_st_cube};
+use super::level::{Level, blend_weight, fast_log2};
+use glint_core::{Rgb, Vec3};
+
+/// Lookups per call.
+pub const LANES: usize = 8;
+
+impl CubeMap {
+    /// [`CubeMap::lookup_filtered`] of eight directions and footprints (the same values, bit
+    /// for bit).
+    #[must_use]
+    pub fn lookup_filtered8(&self, dirs: &[Vec3; LANES], cones: &[f32; LANES]) -> [Rgb; LANES] {
+        if self.finest()[0].texels.len() > u32::MAX as usize {
+            // Texel indices are u32 across the lanes: a face this large (beyond 65 534² texels,
+            // far past what an image may hold) is looked up lane by lane.
+            return std::array::from_fn(|i| self.lookup_filtered(dirs[i], cones[i]));
+        }
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+            // SAFETY: the CPU has AVX2 and FMA (checked just above), all the function needs;
+            // it only computes on its arguments.
+            #[allow(unsafe_code)]
+            return unsafe { self.lookup_filtered8_avx2(dirs, cones) };
+        }
+        self.lookup8(dirs, cones)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn lookup_filtered8_avx2(&self, dirs: &[Vec3; LANES], cones: &[f32; LANES]) -> [Rgb; LANES] {
+        self.lookup8(dirs, cones)
+    }
+
+    #[inline(always)]
+    fn lookup8(&self, dirs: &[Vec3; LANES], cones: &[f32; LANES]) -> [Rgb; LANES] {
+        let count = self.level_count();
+        // 1. Faces, (s, t) and the major axis (cube coordinates: z flipped).
+        let (mut face, mut s, mut t, mut major, mut l2) =
+            ([0usize; LANES], [0f32; LANES], [0f32; LANES], [0f32; LANES], [0f32; LANES]);
+        for i in 0..LANES {
+            let c = Vec3::new(dirs[i].x, dirs[i].y, -dirs[i].z);
+            (face[i], s[i], t[i], major[i]) = face_st_cube(c);
+            l2[i] = c.length_squared();
+        }
+        // 2. Level of detail, levels and blend weight ([`mip_blend`]'s arithmetic, in i32).
+        let (mut lo, mut hi, mut w) = ([0u32; LANES], [0u32; LANES], [0f32; LANES]);
+        let coarsest = (count - 1) as f32;
+        for i in 0..LANES {
+            let (cone, ma) = (cones[i], major[i]);
+            let k = cone * self.half_size;
+            let ma3 = ma * ma * ma;
+            let magnified = (k * k) * (k * k) * (l2[i] * l2[i] * l2[i]) <= ma3 * ma3 || cone.is_nan();
+            let lambda = fast_log2(cone) + self.log2_half_size + 0.75 * fast_log2(l2[i]) - 1.5 * fast_log2(ma);
+            let single = magnified || lambda.is_nan() || lambda <= 0.0;
+            let lambda = if single { 0.0 } else { lambda.min(coarsest) };
+            let l0 = lambda as i32;
+            let weight = blend_weight(lambda - l0 as f32);
+            let l0 = l0 as u32;
+            let weight = if single { 0.0 } else { weight };
+            lo[i] = if weight >= 1.0 { l0 + 1 } else { l0 };
+            hi[i] = (l0 + 1).min(count as u32 - 1);
+            w[i] = weight;
+        }
+        // 3–5. Both levels' bilinear samples, then the blend.
+        let mut out = self.sample8(&lo, &face, &s, &t);
+        let mut blend = false;
+        for &w in &w {
+            blend |= w > 0.0 && w < 1.0;
+        }
+        // Neighbouring footprints are alike: often no lane blends, and the second level is
+        // not read at all.
+        if blend {
+            let b = self.sample8(&hi, &face, &s, &t);
+            for i in 0..LANES {
+                let a = out[i];
+                out[i] = if w[i] > 0.0 && w[i] < 1.0 { a + (b[i] - a) * w[i] } else { a };
+            }
+        }
+        out
+    }
+
+    /// Bilinear samples of face `face[i]` of level `level[i]` at (s, t) for each lane:
+    /// [`Level::bilinear`] at (s · size, t · size).
+    #[inline(always)]
+    fn sample8(&self, level: &[u32; LANES], face: &[usize; LANES], s: &[f32; LANES], t: &[f32; LANES]) -> [Rgb; LANES] {
+        let mut levels: [&Level; LANES] = [&self.finest()[0]; LANES];
+        let (mut size, mut stride) = ([0f32; LANES], [0u32; LANES]);
+        for i in 0..LANES {
+            levels[i] = self.level(level[i] as usize, face[i]);
+            // Texel indices fit a u32 (`lookup_filtered8` checks the finest level).
+            (size[i], stride[i]) = (levels[i].size.x, levels[i].stride as u32);
+        }
+        let (mut fx, mut fy, mut index) = ([0f32; LANES], [0f32; LANES], [0u32; LANES]);
+        for i in 0..LANES {
+            let (x, y) = Level::bilinear_coordinates(s[i] * size[i], t[i] * size[i], size[i], size[i]);
+            // x, y ∈ [½, size + ½]: their truncations are small non-negative integers.
+            let (xi, yi) = (x as i32, y as i32);
+            (fx[i], fy[i]) = (x - xi as f32, y - yi as f32);
+            index[i] = (yi as u32) * stride[i] + xi as u32;
+        }
+        let mut taps = [[0u32; LANES]; 4];
+        for i in 0..LANES {
+            [taps[0][i], taps[1][i], taps[2][i], taps[3][i]] = levels[i].taps(index[i] as usize);
+        }
+        let mut sum = [[0f32; LANES]; 3];
+        for i in 0..LANES {
+            let (gx, gy) = (1.0 - fx[i], 1.0 - fy[i]);
+            let weight = [gx * gy, fx[i] * gy, gx * fy[i], fx[i] * fy[i]];
+            let (mut r, mut g, mut b) = ([0f32; 4], [0f32; 4], [0f32; 4]);
+            for k in 0..4 {
+                let v = taps[k][i];
+                let scaled = weight[k] * f32::from_bits(((v >> 27) + 103) << 23);
+                r[k] = (v & 511) as f32 * scaled;
+                g[k] = ((v >> 9) & 511) as f32 * scaled;
+                b[k] = ((v >> 18) & 511) as f32 * scaled;
+            }
+            // `filter_taps`' order: (0 + 2) + (1 + 3).
+            sum[0][i] = (r[0] + r[2]) + (r[1] + r[3]);
+            sum[1][i] = (g[0] + g[2]) + (g[1] + g[3]);
+            sum[2][i] = (b[0] + b[2]) + (b[1] + b[3]);
+        }
+        std::array::from_fn(|i| Rgb::new(sum[0][i], sum[1][i], sum[2][i]))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sky::{Sky, SkyTransform};
+    use glint_core::random::{hash4, unit_float};
+    use std::sync::Arc;
+
+    fn pattern(d: Vec3) -> Rgb {
+        Rgb::new((d.x * 9.0).sin().abs() * 40.0, (d.y * 7.0).cos().abs(), (d.z * 5.0 + d.x).sin().abs() * 1e-3)
+    }
+
+    /// Directions of every kind (random, on faces' edges and corners, unnormalised, zero, NaN,
+    /// infinite) and footprints from far below a texel to beyond the coarsest level (0, NaN,
+    /// infinite, negative too).
+    fn cases() -> Vec<(Vec3, f32)> {
+        let u = |i: u64, k: u64| unit_float(hash4(i, k, 3, 11));
+        let mut v = Vec::new();
+        for i in 0..4000u64 {
+            let d = Vec3::new(u(i, 0) - 0.5, u(i, 1) - 0.5, u(i, 2) - 0.5) * (0.1 + 10.0 * u(i, 3));
+            let cone = (u(i, 4) * 14.0 - 12.0).exp2();
+            v.push((d, cone));
+        }
+        let special = [Vec3::X, -Vec3::Y, Vec3::new(1.0, 1.0, 1.0), Vec3::new(1.0, -1.0, 0.0), Vec3::ZERO, Vec3::NAN];
+        for d in special.into_iter().chain([Vec3::new(f32::INFINITY, 1.0, 0.0)]) {
+            for cone in [0.0, 1e-6, 0.01, 0.3, 4.0, f32::INFINITY, f32::NAN, -0.5] {
+                v.push((d, cone));
+            }
+        }
+        v
+    }
+
+    #[test]
+    fn eight_lookups_are_the_scalar_lookups_bit_for_bit() {
+        for size in [1, 5, 32] {
+            let map = CubeMap::from_fn(size, pattern);
+            for group in cases().chunks(LANES) {
+                let mut dirs = [Vec3::ZERO; LANES];
+                let mut cones = [0.0; LANES];
+                for (i, (d, c)) in group.iter().enumerate() {
+                    (dirs[i], cones[i]) = (*d, *c);
+                }
+                let eight = map.lookup_filtered8(&dirs, &cones);
+                let portable = map.lookup8(&dirs, &cones);
+                for i in 0..LANES {
+                    let one = map.lookup_filtered(dirs[i], cones[i]);
+                    let bits = |c: Rgb| c.to_array().map(f32::to_bits);
+                    assert_eq!(bits(eight[i]), bits(one), "size {size}, {:?} cone {}", dirs[i], cones[i]);
+                    assert_eq!(bits(portable[i]), bits(one), "portable, size {size}, {:?}", dirs[i]);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_skys_eight_lookups_are_its_lookups() {
+        let map = Arc::new(CubeMap::from_fn(16, pattern));
+        let sky = Sky::CubeMap { map, transform: SkyTransform::new(35.0, 2.5) };
+        let cases = cases();
+        let dirs: [Vec3; LANES] = std::array::from_fn(|i| cases[i * 7].0);
+        let cones: [f32; LANES] = std::array::from_fn(|i| cases[i * 7].1);
+        for active in [0xff, 0b1010_0110, 0b1, 0] {
+            let eight = sky.radiance_filtered8(&dirs, &cones, active);
+            for i in 0..LANES {
+                let want = if active >> i & 1 != 0 { sky.radiance_filtered(dirs[i], cones[i]) } else { Rgb::ZERO };
+                assert_eq!(eight[i].to_array().map(f32::to_bits), want.to_array().map(f32::to_bits), "lane {i}");
+            }
+        }
+    }
+}
