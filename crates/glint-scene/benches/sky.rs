@@ -1,5 +1,5 @@
 //! Nanoseconds per sky lookup (issue 3's measure): seamless bilinear and mip-mapped trilinear
-//! (one at a time, and eight at once: `cube_mip8`), on camera-ray directions in pixel order
+//! (one at a time, and eight at once: `cube_mip8`, `latlong_mip8`), on camera-ray directions in pixel order
 //! (coherent) and on random directions, for a cube map
 //! of 1024² faces and a 2048×1024 lat-long map. Lookups are validated against the scalar
 //! definitions before they are timed. Run: `cargo bench -p glint-scene --bench sky`.
@@ -70,6 +70,15 @@ fn bench(c: &mut Criterion) {
                 dirs.chunks_exact(LANES).fold(Rgb::ZERO, |acc, d| {
                     let d: &[Vec3; LANES] = d.try_into().unwrap();
                     cube.lookup_filtered8(black_box(d), &cones).iter().fold(acc, |a, c| a + *c)
+                })
+            })
+        });
+        g.bench_function(format!("latlong_mip8_{name}"), |b| {
+            let cones = [cone; LANES];
+            b.iter(|| {
+                dirs.chunks_exact(LANES).fold(Rgb::ZERO, |acc, d| {
+                    let d: &[Vec3; LANES] = d.try_into().unwrap();
+                    latlong.lookup_filtered8(black_box(d), &cones).iter().fold(acc, |a, c| a + *c)
                 })
             })
         });

@@ -1,10 +1,12 @@
-//! Eight sky lookups at once (issue 19): [`CubeMap::lookup_filtered8`] does what
-//! [`CubeMap::lookup_filtered`] does for each of eight directions, bit for bit, with the
-//! arithmetic across lanes. Each stage is a loop over the eight lanes that the compiler turns
+//! Eight sky lookups at once (issue 19): [`CubeMap::lookup_filtered8`] and
+//! [`LatLongMap::lookup_filtered8`] do what `lookup_filtered` does for each of eight
+//! directions, bit for bit on x86-64 (where `filter_taps` adds in the order used here), with
+//! the arithmetic across lanes. Each stage is a loop over the eight lanes that the compiler turns
 //! into one vector operation per step (the AVX2 + FMA copy is chosen at run time; Rust never
 //! fuses a multiply and an add by itself, so both copies compute the scalar code's values):
 //!
-//! 1. the face and its (s, t) by the major axis, as selects rather than branches;
+//! 1. the face and its (s, t) by the major axis (a lat-long map: longitude and latitude by
+//!    polynomial atan2 and acos);
 //! 2. the level of detail from bit-trick logs and the "brilinear" blend (`mip_blend`'s
 //!    arithmetic), giving each lane the level it reads (`lo`), the next one (`hi`) and the
 //!    weight between them;
@@ -17,8 +19,10 @@
 //! when none does (neighbouring footprints are alike), the second level is not read.
 
 use super::cube::{CubeMap, face_st_cube};
+use super::latlong::{LatLongMap, latlong_uv};
 use super::level::{Level, blend_weight, fast_log2};
 use glint_core::{Rgb, Vec3};
+use std::f32::consts::PI;
 
 /// Lookups per call.
 pub const LANES: usize = 8;
@@ -102,43 +106,151 @@ impl CubeMap {
     #[inline(always)]
     fn sample8(&self, level: &[u32; LANES], face: &[usize; LANES], s: &[f32; LANES], t: &[f32; LANES]) -> [Rgb; LANES] {
         let mut levels: [&Level; LANES] = [&self.finest()[0]; LANES];
-        let (mut size, mut stride) = ([0f32; LANES], [0u32; LANES]);
         for i in 0..LANES {
             levels[i] = self.level(level[i] as usize, face[i]);
-            // Texel indices fit a u32 (`lookup_filtered8` checks the finest level).
-            (size[i], stride[i]) = (levels[i].size.x, levels[i].stride as u32);
         }
-        let (mut fx, mut fy, mut index) = ([0f32; LANES], [0f32; LANES], [0u32; LANES]);
-        for i in 0..LANES {
-            let (x, y) = Level::bilinear_coordinates(s[i] * size[i], t[i] * size[i], size[i], size[i]);
-            // x, y ∈ [½, size + ½]: their truncations are small non-negative integers.
-            let (xi, yi) = (x as i32, y as i32);
-            (fx[i], fy[i]) = (x - xi as f32, y - yi as f32);
-            index[i] = (yi as u32) * stride[i] + xi as u32;
-        }
-        let mut taps = [[0u32; LANES]; 4];
-        for i in 0..LANES {
-            [taps[0][i], taps[1][i], taps[2][i], taps[3][i]] = levels[i].taps(index[i] as usize);
-        }
-        let mut sum = [[0f32; LANES]; 3];
-        for i in 0..LANES {
-            let (gx, gy) = (1.0 - fx[i], 1.0 - fy[i]);
-            let weight = [gx * gy, fx[i] * gy, gx * fy[i], fx[i] * fy[i]];
-            let (mut r, mut g, mut b) = ([0f32; 4], [0f32; 4], [0f32; 4]);
-            for k in 0..4 {
-                let v = taps[k][i];
-                let scaled = weight[k] * f32::from_bits(((v >> 27) + 103) << 23);
-                r[k] = (v & 511) as f32 * scaled;
-                g[k] = ((v >> 9) & 511) as f32 * scaled;
-                b[k] = ((v >> 18) & 511) as f32 * scaled;
-            }
-            // `filter_taps`' order: (0 + 2) + (1 + 3).
-            sum[0][i] = (r[0] + r[2]) + (r[1] + r[3]);
-            sum[1][i] = (g[0] + g[2]) + (g[1] + g[3]);
-            sum[2][i] = (b[0] + b[2]) + (b[1] + b[3]);
-        }
-        std::array::from_fn(|i| Rgb::new(sum[0][i], sum[1][i], sum[2][i]))
+        bilinear8(&levels, s, t)
     }
+}
+
+impl LatLongMap {
+    /// [`LatLongMap::lookup_filtered`] of eight directions and footprints (the same values,
+    /// bit for bit).
+    #[must_use]
+    pub fn lookup_filtered8(&self, dirs: &[Vec3; LANES], cones: &[f32; LANES]) -> [Rgb; LANES] {
+        if self.level(0).texels.len() > u32::MAX as usize {
+            // As for the cube map: u32 texel indices across the lanes.
+            return std::array::from_fn(|i| self.lookup_filtered(dirs[i], cones[i]));
+        }
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+            // SAFETY: the CPU has AVX2 and FMA (checked just above), all the function needs;
+            // it only computes on its arguments.
+            #[allow(unsafe_code)]
+            return unsafe { self.lookup_filtered8_avx2(dirs, cones) };
+        }
+        self.lookup8(dirs, cones)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn lookup_filtered8_avx2(&self, dirs: &[Vec3; LANES], cones: &[f32; LANES]) -> [Rgb; LANES] {
+        self.lookup8(dirs, cones)
+    }
+
+    #[inline(always)]
+    fn lookup8(&self, dirs: &[Vec3; LANES], cones: &[f32; LANES]) -> [Rgb; LANES] {
+        let count = self.level_count();
+        let finest = self.level(0);
+        let coarsest = (count - 1) as f32;
+        let (mut u, mut v) = ([0f32; LANES], [0f32; LANES]);
+        let (mut lo, mut hi, mut w, mut at_finest) = ([0u32; LANES], [0u32; LANES], [0f32; LANES], [false; LANES]);
+        for i in 0..LANES {
+            (u[i], v[i]) = latlong_uv(dirs[i]);
+            // The footprint in rows, its level and blend weight (as `lookup_filtered`).
+            let texels = cones[i] * finest.size.y * (1.0 / PI);
+            let lambda = fast_log2(texels);
+            let single = texels.is_nan() || texels <= 1.0 || lambda <= 0.0;
+            let lambda = if single { 0.0 } else { lambda.min(coarsest) };
+            let l0 = lambda as i32;
+            let weight = if single { 0.0 } else { blend_weight(lambda - l0 as f32) };
+            let l0 = l0 as u32;
+            at_finest[i] = single;
+            lo[i] = if weight >= 1.0 { l0 + 1 } else { l0 };
+            hi[i] = (l0 + 1).min(count as u32 - 1);
+            w[i] = weight;
+        }
+        let mut out = self.sample8(&lo, &at_finest, &u, &v);
+        let mut blend = false;
+        for &w in &w {
+            blend |= w > 0.0 && w < 1.0;
+        }
+        if blend {
+            let b = self.sample8(&hi, &[false; LANES], &u, &v);
+            for i in 0..LANES {
+                let a = out[i];
+                out[i] = if w[i] > 0.0 && w[i] < 1.0 { a + (b[i] - a) * w[i] } else { a };
+            }
+        }
+        out
+    }
+
+    /// Bilinear samples of level `level[i]` at (u, v) for each lane; a lane `finest[i]` reads
+    /// the finest level as [`LatLongMap::lookup`] does (rows spanning the poles, when they do).
+    #[inline(always)]
+    fn sample8(
+        &self,
+        level: &[u32; LANES],
+        finest: &[bool; LANES],
+        u: &[f32; LANES],
+        v: &[f32; LANES],
+    ) -> [Rgb; LANES] {
+        let mut levels: [&Level; LANES] = [self.level(0); LANES];
+        for i in 0..LANES {
+            levels[i] = self.level(level[i] as usize);
+        }
+        if !self.rows_span_poles() || !finest.contains(&true) {
+            return bilinear8(&levels, u, v);
+        }
+        // Rows spanning the poles, at the finest level: that lane by lane.
+        let mut out = bilinear8(&levels, u, v);
+        for i in 0..LANES {
+            if finest[i] {
+                let l = levels[i];
+                out[i] = l.bilinear(u[i] * l.size.x, v[i] * (l.size.y - 1.0) + 0.5);
+            }
+        }
+        out
+    }
+}
+
+/// [`Level::bilinear`] of `levels[i]` at (`u[i]` · its width, `v[i]` · its height) for each
+/// lane.
+#[inline(always)]
+fn bilinear8(levels: &[&Level; LANES], u: &[f32; LANES], v: &[f32; LANES]) -> [Rgb; LANES] {
+    // Each lane's level sizes first (loads through eight pointers), so that the arithmetic
+    // below is one vector operation per step.
+    let (mut width, mut height, mut stride) = ([0f32; LANES], [0f32; LANES], [0u32; LANES]);
+    for i in 0..LANES {
+        (width[i], height[i], stride[i]) = (levels[i].size.x, levels[i].size.y, levels[i].stride as u32);
+    }
+    let (mut fx, mut fy, mut index) = ([0f32; LANES], [0f32; LANES], [0u32; LANES]);
+    for i in 0..LANES {
+        let (x, y) = Level::bilinear_coordinates(u[i] * width[i], v[i] * height[i], width[i], height[i]);
+        // x, y ∈ [½, size + ½]: their truncations are small non-negative integers, and the
+        // index fits a u32 (the callers check the finest level).
+        let (xi, yi) = (x as i32, y as i32);
+        (fx[i], fy[i]) = (x - xi as f32, y - yi as f32);
+        index[i] = (yi as u32) * stride[i] + xi as u32;
+    }
+    let mut taps = [[0u32; LANES]; 4];
+    for i in 0..LANES {
+        // SAFETY: index[i] = ⌊y⌋ · stride + ⌊x⌋ of coordinates clamped by
+        // `bilinear_coordinates` (⌊x⌋ ≤ width, ⌊y⌋ ≤ height), the taps' own precondition; the
+        // tests read edges, corners, NaN and infinite directions against the checked scalar
+        // lookup.
+        #[allow(unsafe_code)]
+        let t = unsafe { levels[i].taps_unchecked(index[i] as usize) };
+        [taps[0][i], taps[1][i], taps[2][i], taps[3][i]] = t;
+    }
+    let mut sum = [[0f32; LANES]; 3];
+    for i in 0..LANES {
+        let (gx, gy) = (1.0 - fx[i], 1.0 - fy[i]);
+        let weight = [gx * gy, fx[i] * gy, gx * fy[i], fx[i] * fy[i]];
+        let (mut r, mut g, mut b) = ([0f32; 4], [0f32; 4], [0f32; 4]);
+        for k in 0..4 {
+            let v = taps[k][i];
+            let scaled = weight[k] * f32::from_bits(((v >> 27) + 103) << 23);
+            r[k] = (v & 511) as f32 * scaled;
+            g[k] = ((v >> 9) & 511) as f32 * scaled;
+            b[k] = ((v >> 18) & 511) as f32 * scaled;
+        }
+        // `filter_taps`' order: (0 + 2) + (1 + 3).
+        sum[0][i] = (r[0] + r[2]) + (r[1] + r[3]);
+        sum[1][i] = (g[0] + g[2]) + (g[1] + g[3]);
+        sum[2][i] = (b[0] + b[2]) + (b[1] + b[3]);
+    }
+    std::array::from_fn(|i| Rgb::new(sum[0][i], sum[1][i], sum[2][i]))
 }
 
 #[cfg(test)]
@@ -195,13 +307,39 @@ mod tests {
     }
 
     #[test]
+    fn eight_lat_long_lookups_are_the_scalar_lookups_bit_for_bit() {
+        for (height, poles) in [(2, false), (9, false), (64, false), (64, true)] {
+            let mut map = LatLongMap::from_fn(height, pattern);
+            if poles {
+                map = map.with_rows_spanning_poles();
+            }
+            for group in cases().chunks(LANES) {
+                let mut dirs = [Vec3::ZERO; LANES];
+                let mut cones = [0.0; LANES];
+                for (i, (d, c)) in group.iter().enumerate() {
+                    (dirs[i], cones[i]) = (*d, *c);
+                }
+                let (eight, portable) = (map.lookup_filtered8(&dirs, &cones), map.lookup8(&dirs, &cones));
+                for i in 0..LANES {
+                    let one = map.lookup_filtered(dirs[i], cones[i]);
+                    let bits = |c: Rgb| c.to_array().map(f32::to_bits);
+                    assert_eq!(bits(eight[i]), bits(one), "height {height}, {:?} cone {}", dirs[i], cones[i]);
+                    assert_eq!(bits(portable[i]), bits(one), "portable, height {height}, {:?}", dirs[i]);
+                }
+            }
+        }
+    }
+
+    #[test]
     fn a_skys_eight_lookups_are_its_lookups() {
-        let map = Arc::new(CubeMap::from_fn(16, pattern));
-        let sky = Sky::CubeMap { map, transform: SkyTransform::new(35.0, 2.5) };
+        let cube =
+            Sky::CubeMap { map: Arc::new(CubeMap::from_fn(16, pattern)), transform: SkyTransform::new(35.0, 2.5) };
+        let latlong =
+            Sky::LatLong { map: Arc::new(LatLongMap::from_fn(32, pattern)), transform: SkyTransform::new(-20.0, 0.5) };
         let cases = cases();
         let dirs: [Vec3; LANES] = std::array::from_fn(|i| cases[i * 7].0);
         let cones: [f32; LANES] = std::array::from_fn(|i| cases[i * 7].1);
-        for active in [0xff, 0b1010_0110, 0b1, 0] {
+        for (sky, active) in [&cube, &latlong].into_iter().flat_map(|s| [0xff, 0b1010_0110, 0b1, 0].map(|a| (s, a))) {
             let eight = sky.radiance_filtered8(&dirs, &cones, active);
             for i in 0..LANES {
                 let want = if active >> i & 1 != 0 { sky.radiance_filtered(dirs[i], cones[i]) } else { Rgb::ZERO };

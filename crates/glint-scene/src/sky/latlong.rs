@@ -188,6 +188,18 @@ impl LatLongMap {
         self.finest_sample(u, v)
     }
 
+    /// Level `level` (finest first).
+    #[inline(always)]
+    pub(super) fn level(&self, level: usize) -> &Level {
+        &self.levels[level]
+    }
+
+    /// Whether the finest level's rows span the poles (see the field).
+    #[inline(always)]
+    pub(super) fn rows_span_poles(&self) -> bool {
+        self.rows_span_poles
+    }
+
     #[inline(always)]
     fn finest_sample(&self, u: f32, v: f32) -> Rgb {
         let l = &self.levels[0];

@@ -180,11 +180,21 @@ impl Level {
     }
 
     /// The four taps (top left, top right, bottom left, bottom right) whose top left is texel
-    /// `index` of the bordered grid.
+    /// `index` of the bordered grid, read without bounds checks.
+    ///
+    /// # Safety
+    /// `index + stride + 1` must be below `texels.len()`: true for `⌊y⌋ · stride + ⌊x⌋` of
+    /// coordinates from [`Level::bilinear_coordinates`] (⌊x⌋ ≤ width, ⌊y⌋ ≤ height).
     #[inline(always)]
-    pub(crate) fn taps(&self, index: usize) -> [u32; 4] {
-        let (t, b) = (&self.texels[index..index + 2], &self.texels[index + self.stride..index + self.stride + 2]);
-        [t[0], t[1], b[0], b[1]]
+    #[allow(unsafe_code)]
+    pub(crate) unsafe fn taps_unchecked(&self, index: usize) -> [u32; 4] {
+        debug_assert!(index + self.stride + 1 < self.texels.len());
+        // SAFETY: the caller keeps index + stride + 1 inside the texels (see above).
+        unsafe {
+            let t = self.texels.get_unchecked(index..index + 2);
+            let b = self.texels.get_unchecked(index + self.stride..index + self.stride + 2);
+            [t[0], t[1], b[0], b[1]]
+        }
     }
 
     /// The next coarser level's interior: each side halved (at least 1), every new texel the

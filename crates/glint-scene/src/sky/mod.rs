@@ -156,19 +156,19 @@ impl Sky {
     }
 
     /// [`Sky::radiance_filtered`] of the directions and footprints of the lanes set in
-    /// `active` (bit i: lane i; the others are zero): the same values, with a cube map's eight
-    /// lookups done across lanes ([`CubeMap::lookup_filtered8`]).
+    /// `active` (bit i: lane i; the others are zero): the same values, with a map's eight
+    /// lookups done across lanes ([`CubeMap::lookup_filtered8`],
+    /// [`LatLongMap::lookup_filtered8`]).
     pub fn radiance_filtered8(&self, dirs: &[Vec3; LANES], cones: &[f32; LANES], active: u8) -> [Rgb; LANES] {
         let mut out = [Rgb::ZERO; LANES];
         match self {
             Sky::CubeMap { map, transform } if active.count_ones() > 1 => {
-                let map_dirs = dirs.map(|d| transform.to_map(d));
-                let seen = map.lookup_filtered8(&map_dirs, cones);
-                for (i, (o, c)) in out.iter_mut().zip(seen).enumerate() {
-                    if active >> i & 1 != 0 {
-                        *o = c * transform.intensity;
-                    }
-                }
+                let seen = map.lookup_filtered8(&dirs.map(|d| transform.to_map(d)), cones);
+                scaled_lanes(&mut out, seen, transform.intensity, active);
+            }
+            Sky::LatLong { map, transform } if active.count_ones() > 1 => {
+                let seen = map.lookup_filtered8(&dirs.map(|d| transform.to_map(d)), cones);
+                scaled_lanes(&mut out, seen, transform.intensity, active);
             }
             _ => {
                 for (i, o) in out.iter_mut().enumerate() {
@@ -189,6 +189,15 @@ impl Sky {
     /// The sky's irradiance as spherical harmonics (the ambient light of a surface).
     pub fn irradiance_sh(&self) -> IrradianceSh {
         IrradianceSh::project(|d, footprint| self.radiance_filtered(d, footprint))
+    }
+}
+
+/// `out[i] = seen[i] · intensity` for the lanes set in `active`.
+fn scaled_lanes(out: &mut [Rgb; LANES], seen: [Rgb; LANES], intensity: f32, active: u8) {
+    for (i, (o, c)) in out.iter_mut().zip(seen).enumerate() {
+        if active >> i & 1 != 0 {
+            *o = c * intensity;
+        }
     }
 }
 
