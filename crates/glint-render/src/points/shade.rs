@@ -35,17 +35,27 @@ pub fn shade(
     let PointFrame { depth, normal, albedo, material, colour, .. } = frame;
     let (depth, normal, albedo, material) = (&*depth, &*normal, &*albedo, &*material);
     colour.par_chunks_mut(width).enumerate().with_min_len(4).for_each(|(y, row)| {
+        // The sky behind, eight pixels at a time (a map's lookups run across lanes).
+        let mut sky = [Rgb::ZERO; 8];
         for (x, out) in row.iter_mut().enumerate() {
             let i = y * width + x;
+            if constant_sky.is_none() && x % 8 == 0 {
+                let mut background = 0u8;
+                let mut dirs = [Vec3::ZERO; 8];
+                for k in 0..8.min(width - x) {
+                    if !depth[i + k].is_finite() {
+                        background |= 1 << k;
+                        let p = Vec2::new((x + k) as f32 + 0.5, y as f32 + 0.5);
+                        dirs[k] = view.ray_at_depth_one(p).normalize();
+                    }
+                }
+                if background != 0 {
+                    sky = scene.sky.radiance_filtered8(&dirs, &[cone; 8], background);
+                }
+            }
             let z = depth[i];
             if !z.is_finite() {
-                *out = match constant_sky {
-                    Some(c) => c,
-                    None => {
-                        let dir = view.ray_at_depth_one(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
-                        scene.sky.radiance_filtered(dir.normalize(), cone)
-                    }
-                };
+                *out = constant_sky.unwrap_or(sky[x % 8]);
                 continue;
             }
             let dir = view.ray_at_depth_one(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
