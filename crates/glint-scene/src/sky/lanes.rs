@@ -27,34 +27,93 @@ use std::f32::consts::PI;
 /// Lookups per call.
 pub const LANES: usize = 8;
 
+/// Eight directions, one per lane.
+type Dirs8 = [Vec3; LANES];
+
+/// A map whose filtered lookup runs across eight lanes.
+trait Lookup8 {
+    /// Texels of the finest level (with its border): the lanes index texels in u32.
+    fn finest_texels(&self) -> usize;
+    /// The scalar lookup (`lookup_filtered`).
+    fn one(&self, dir: Vec3, cone: f32) -> Rgb;
+    /// The eight lookups, written as loops over the lanes (inlined into each instruction
+    /// set's copy).
+    fn lookup8(&self, dirs: &Dirs8, cones: &[f32; LANES]) -> [Rgb; LANES];
+}
+
+/// `map`'s eight lookups with the best instruction set the CPU has.
+fn lookup_filtered8<M: Lookup8>(map: &M, dirs: &Dirs8, cones: &[f32; LANES]) -> [Rgb; LANES] {
+    if map.finest_texels() > u32::MAX as usize {
+        // Texel indices are u32 across the lanes: a level this large (beyond 65 534² texels,
+        // far past what an image may hold) is looked up lane by lane.
+        return std::array::from_fn(|i| map.one(dirs[i], cones[i]));
+    }
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+        // SAFETY: the CPU has AVX2 and FMA (checked just above), all the function needs; it
+        // only computes on its arguments.
+        #[allow(unsafe_code)]
+        return unsafe { lookup8_avx2(map, dirs, cones) };
+    }
+    map.lookup8(dirs, cones)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn lookup8_avx2<M: Lookup8>(map: &M, dirs: &Dirs8, cones: &[f32; LANES]) -> [Rgb; LANES] {
+    map.lookup8(dirs, cones)
+}
+
+/// Whether any lane blends two levels (0 < w < 1): else the second level is not read.
+#[inline(always)]
+fn blends(w: &[f32; LANES]) -> bool {
+    let mut any = false;
+    for &w in w {
+        any |= w > 0.0 && w < 1.0;
+    }
+    any
+}
+
+/// `a + (b − a) · w` in the lanes that blend, `a` in the others (the scalar lookups' step).
+#[inline(always)]
+fn mix8(a: &mut [Rgb; LANES], b: &[Rgb; LANES], w: &[f32; LANES]) {
+    for i in 0..LANES {
+        let mixed = a[i] + (b[i] - a[i]) * w[i];
+        a[i] = if w[i] > 0.0 && w[i] < 1.0 { mixed } else { a[i] };
+    }
+}
+
 impl CubeMap {
     /// [`CubeMap::lookup_filtered`] of eight directions and footprints (the same values, bit
     /// for bit).
     #[must_use]
-    pub fn lookup_filtered8(&self, dirs: &[Vec3; LANES], cones: &[f32; LANES]) -> [Rgb; LANES] {
-        if self.finest()[0].texels.len() > u32::MAX as usize {
-            // Texel indices are u32 across the lanes: a face this large (beyond 65 534² texels,
-            // far past what an image may hold) is looked up lane by lane.
-            return std::array::from_fn(|i| self.lookup_filtered(dirs[i], cones[i]));
-        }
-        #[cfg(target_arch = "x86_64")]
-        if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-            // SAFETY: the CPU has AVX2 and FMA (checked just above), all the function needs;
-            // it only computes on its arguments.
-            #[allow(unsafe_code)]
-            return unsafe { self.lookup_filtered8_avx2(dirs, cones) };
-        }
-        self.lookup8(dirs, cones)
+    pub fn lookup_filtered8(&self, dirs: &Dirs8, cones: &[f32; LANES]) -> [Rgb; LANES] {
+        lookup_filtered8(self, dirs, cones)
     }
 
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn lookup_filtered8_avx2(&self, dirs: &[Vec3; LANES], cones: &[f32; LANES]) -> [Rgb; LANES] {
-        self.lookup8(dirs, cones)
+    /// Bilinear samples of face `face[i]` of level `level[i]` at (s, t) for each lane:
+    /// [`Level::bilinear`] at (s · size, t · size).
+    #[inline(always)]
+    fn sample8(&self, level: &[u32; LANES], face: &[usize; LANES], s: &[f32; LANES], t: &[f32; LANES]) -> [Rgb; LANES] {
+        let mut levels: [&Level; LANES] = [&self.finest()[0]; LANES];
+        for i in 0..LANES {
+            levels[i] = self.level(level[i] as usize, face[i]);
+        }
+        bilinear8(&levels, s, t)
+    }
+}
+
+impl Lookup8 for CubeMap {
+    fn finest_texels(&self) -> usize {
+        self.finest()[0].texels.len()
+    }
+
+    fn one(&self, dir: Vec3, cone: f32) -> Rgb {
+        self.lookup_filtered(dir, cone)
     }
 
     #[inline(always)]
-    fn lookup8(&self, dirs: &[Vec3; LANES], cones: &[f32; LANES]) -> [Rgb; LANES] {
+    fn lookup8(&self, dirs: &Dirs8, cones: &[f32; LANES]) -> [Rgb; LANES] {
         let count = self.level_count();
         // 1. Faces, (s, t) and the major axis (cube coordinates: z flipped).
         let (mut face, mut s, mut t, mut major, mut l2) =
@@ -83,33 +142,13 @@ impl CubeMap {
             hi[i] = (l0 + 1).min(count as u32 - 1);
             w[i] = weight;
         }
-        // 3–5. Both levels' bilinear samples, then the blend.
+        // 3–5. The levels' bilinear samples, then the blend. Neighbouring footprints are
+        // alike: often no lane blends, and the second level is not read at all.
         let mut out = self.sample8(&lo, &face, &s, &t);
-        let mut blend = false;
-        for &w in &w {
-            blend |= w > 0.0 && w < 1.0;
-        }
-        // Neighbouring footprints are alike: often no lane blends, and the second level is
-        // not read at all.
-        if blend {
-            let b = self.sample8(&hi, &face, &s, &t);
-            for i in 0..LANES {
-                let a = out[i];
-                out[i] = if w[i] > 0.0 && w[i] < 1.0 { a + (b[i] - a) * w[i] } else { a };
-            }
+        if blends(&w) {
+            mix8(&mut out, &self.sample8(&hi, &face, &s, &t), &w);
         }
         out
-    }
-
-    /// Bilinear samples of face `face[i]` of level `level[i]` at (s, t) for each lane:
-    /// [`Level::bilinear`] at (s · size, t · size).
-    #[inline(always)]
-    fn sample8(&self, level: &[u32; LANES], face: &[usize; LANES], s: &[f32; LANES], t: &[f32; LANES]) -> [Rgb; LANES] {
-        let mut levels: [&Level; LANES] = [&self.finest()[0]; LANES];
-        for i in 0..LANES {
-            levels[i] = self.level(level[i] as usize, face[i]);
-        }
-        bilinear8(&levels, s, t)
     }
 }
 
@@ -117,29 +156,22 @@ impl LatLongMap {
     /// [`LatLongMap::lookup_filtered`] of eight directions and footprints (the same values,
     /// bit for bit).
     #[must_use]
-    pub fn lookup_filtered8(&self, dirs: &[Vec3; LANES], cones: &[f32; LANES]) -> [Rgb; LANES] {
-        if self.level(0).texels.len() > u32::MAX as usize {
-            // As for the cube map: u32 texel indices across the lanes.
-            return std::array::from_fn(|i| self.lookup_filtered(dirs[i], cones[i]));
-        }
-        #[cfg(target_arch = "x86_64")]
-        if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-            // SAFETY: the CPU has AVX2 and FMA (checked just above), all the function needs;
-            // it only computes on its arguments.
-            #[allow(unsafe_code)]
-            return unsafe { self.lookup_filtered8_avx2(dirs, cones) };
-        }
-        self.lookup8(dirs, cones)
+    pub fn lookup_filtered8(&self, dirs: &Dirs8, cones: &[f32; LANES]) -> [Rgb; LANES] {
+        lookup_filtered8(self, dirs, cones)
+    }
+}
+
+impl Lookup8 for LatLongMap {
+    fn finest_texels(&self) -> usize {
+        self.level(0).texels.len()
     }
 
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn lookup_filtered8_avx2(&self, dirs: &[Vec3; LANES], cones: &[f32; LANES]) -> [Rgb; LANES] {
-        self.lookup8(dirs, cones)
+    fn one(&self, dir: Vec3, cone: f32) -> Rgb {
+        self.lookup_filtered(dir, cone)
     }
 
     #[inline(always)]
-    fn lookup8(&self, dirs: &[Vec3; LANES], cones: &[f32; LANES]) -> [Rgb; LANES] {
+    fn lookup8(&self, dirs: &Dirs8, cones: &[f32; LANES]) -> [Rgb; LANES] {
         let count = self.level_count();
         let finest = self.level(0);
         let coarsest = (count - 1) as f32;
@@ -161,20 +193,14 @@ impl LatLongMap {
             w[i] = weight;
         }
         let mut out = self.sample8(&lo, &at_finest, &u, &v);
-        let mut blend = false;
-        for &w in &w {
-            blend |= w > 0.0 && w < 1.0;
-        }
-        if blend {
-            let b = self.sample8(&hi, &[false; LANES], &u, &v);
-            for i in 0..LANES {
-                let a = out[i];
-                out[i] = if w[i] > 0.0 && w[i] < 1.0 { a + (b[i] - a) * w[i] } else { a };
-            }
+        if blends(&w) {
+            mix8(&mut out, &self.sample8(&hi, &[false; LANES], &u, &v), &w);
         }
         out
     }
+}
 
+impl LatLongMap {
     /// Bilinear samples of level `level[i]` at (u, v) for each lane; a lane `finest[i]` reads
     /// the finest level as [`LatLongMap::lookup`] does (rows spanning the poles, when they do).
     #[inline(always)]
