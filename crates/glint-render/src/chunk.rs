@@ -245,6 +245,23 @@ impl Chunk {
         }
         // A Whitted part of some of the samples holds their records, one below the other.
         let raw = end_unit - first_unit < total_units;
+        // What the split puts where: a share of samples holds the whole frame, a tile its
+        // place in the grid.
+        let expected = match split {
+            Split::Samples => Region::whole(frame.0, frame.1),
+            Split::Tiles => Region::tile(frame.0, frame.1, index, count).map_err(|e| fail(path, e))?,
+        };
+        if region != expected {
+            return Err(fail(
+                path,
+                format!(
+                    "holds the pixels {region:?} of its {}x{} frame, where the {} split puts {expected:?}",
+                    frame.0,
+                    frame.1,
+                    split.name()
+                ),
+            ));
+        }
         let rows = match attr("glint.kind")? {
             "whitted" if raw => u64::from(region.height) * (end_unit - first_unit),
             "whitted" | "path" => u64::from(region.height),
@@ -433,9 +450,10 @@ struct Seen {
 enum Sum {
     /// Path sums: shares added (integers: in any order), tiles placed.
     Path(Option<PathSums>),
-    /// Whitted: finished pixels placed (tiles, or a whole frame), the records of shares of the
-    /// samples kept by chunk index (they are added in sample order at the end).
-    Whitted { pixels: Vec<FilmPixel>, records: Vec<Option<Vec<FilmPixel>>> },
+    /// Whitted: finished pixels placed (tiles, or a whole frame; made at the first), the
+    /// records of shares of the samples kept by chunk index (they are added in sample order at
+    /// the end).
+    Whitted { pixels: Option<Vec<FilmPixel>>, records: Vec<Option<Vec<FilmPixel>>> },
 }
 
 /// Check that `chunks` (read one after another from the paths beside them) are every chunk of
@@ -483,10 +501,7 @@ pub fn merge(chunks: impl IntoIterator<Item = Result<(PathBuf, Chunk), ChunkErro
     slots.resize_with(first.count as usize, || None);
     let mut sum = match first.part {
         Part::Path(_) => Sum::Path(None),
-        Part::Whitted(_) => Sum::Whitted {
-            pixels: vec![FilmPixel::default(); whole.pixels()],
-            records: vec![None; first.count as usize],
-        },
+        Part::Whitted(_) => Sum::Whitted { pixels: None, records: vec![None; first.count as usize] },
     };
     let settings = first.settings.clone();
     // The first chunk is checked (against itself) and taken in like the others: its header is
@@ -594,7 +609,9 @@ pub fn merge(chunks: impl IntoIterator<Item = Result<(PathBuf, Chunk), ChunkErro
         }
         Sum::Whitted { pixels, records } => {
             film.reset(w, h).map_err(|e| fail(&first_path, e))?;
-            film.pixels = pixels;
+            if let Some(pixels) = pixels {
+                film.pixels = pixels;
+            }
             if records.iter().any(Option::is_some) {
                 let mut samples = SampleSum::try_new(whole.pixels()).map_err(|e| fail(&first_path, e))?;
                 for one in records.iter().flatten().flat_map(|r| r.chunks_exact(whole.pixels().max(1))) {
@@ -605,6 +622,16 @@ pub fn merge(chunks: impl IntoIterator<Item = Result<(PathBuf, Chunk), ChunkErro
         }
     }
     Ok(Merged { film, settings, description })
+}
+
+/// A buffer of the whole frame's pixels, refused (naming the chunk that asked for it) when it
+/// does not fit the memory budget: a tile's header names a frame that may be far larger than
+/// the tile.
+fn frame_buffer<T: Clone>(path: &Path, whole: Region, value: T) -> Result<Vec<T>, ChunkError> {
+    let what = || format!("the merged {}x{} frame", whole.width, whole.height);
+    let mut v = glint_core::memory::try_with_capacity(what, whole.pixels()).map_err(|e| fail(path, e))?;
+    v.resize(whole.pixels(), value);
+    Ok(v)
 }
 
 /// Take chunk `c`'s part (checked against the frame by [`merge`]) into `sum`.
@@ -619,14 +646,17 @@ fn take_in(sum: &mut Sum, path: &Path, c: Chunk, whole: Region) -> Result<(), Ch
                 (total @ None, Split::Samples) => *total = Some(sums),
                 (Some(t), Split::Samples) => t.add(&sums).map_err(|e| fail(path, e))?,
                 (t, Split::Tiles) => {
-                    let t = t.get_or_insert_with(|| PathSums {
-                        width: whole.width,
-                        height: whole.height,
-                        filtered: sums.filtered,
-                        units: sums.units,
-                        pixels: vec![PixelSums::default(); whole.pixels()],
-                        first: Some(vec![FirstSample::default(); whole.pixels()]),
-                    });
+                    if t.is_none() {
+                        *t = Some(PathSums {
+                            width: whole.width,
+                            height: whole.height,
+                            filtered: sums.filtered,
+                            units: sums.units,
+                            pixels: frame_buffer(path, whole, PixelSums::default())?,
+                            first: Some(frame_buffer(path, whole, FirstSample::default())?),
+                        });
+                    }
+                    let Some(t) = t.as_mut() else { return Ok(()) };
                     place(&mut t.pixels, width, c.region, &sums.pixels);
                     let (Some(all), Some(part)) = (t.first.as_mut(), sums.first.as_ref()) else {
                         return Err(fail(path, "a tile without its first sample's AOVs"));
@@ -643,7 +673,12 @@ fn take_in(sum: &mut Sum, path: &Path, c: Chunk, whole: Region) -> Result<(), Ch
             if part.raw {
                 records[c.index as usize] = Some(part.pixels);
             } else {
-                place(pixels, width, c.region, &part.pixels);
+                if pixels.is_none() {
+                    *pixels = Some(frame_buffer(path, whole, FilmPixel::default())?);
+                }
+                if let Some(pixels) = pixels.as_mut() {
+                    place(pixels, width, c.region, &part.pixels);
+                }
             }
         }
         _ => return Err(fail(path, "a chunk of another kind of frame")),
@@ -690,6 +725,50 @@ mod tests {
             let (path, c) = chunk(index, count, 3);
             assert_eq!(Chunk::from_table(&path, &c.to_table()).expect("read back"), c);
         }
+    }
+
+    #[test]
+    fn headers_that_disagree_with_themselves_or_the_table_are_refused() {
+        let (path, c) = chunk(0, 3, 3);
+        let table = c.to_table();
+        assert!(Chunk::from_table(&path, &table).is_ok());
+        for (from, to, needle) in [
+            ("glint.region=0,0,3,2", "glint.region=1,0,3,2", "not inside the 3x2 frame"),
+            ("glint.region=0,0,3,2", "glint.region=0,0,2,1", "where the samples split puts"),
+            ("glint.split=samples", "glint.split=tiles", "where the tiles split puts"),
+            ("glint.region=0,0,3,2", "glint.region=0,0,2,2", "where the samples split puts"),
+            ("glint.region=0,0,3,2", "glint.region=0,0,0,2", "not inside"),
+            ("glint.region=0,0,3,2", "glint.region=0,0,3,-2", "glint.region"),
+            ("glint.kind=path", "glint.kind=points", "glint.kind"),
+            ("glint.split=samples", "glint.split=rows", "glint.split"),
+            ("glint.frame=3x2", "glint.frame=3", "glint.frame"),
+            ("glint.frame=3x2", "glint.frame=4294967295x2", "where the samples split puts"),
+            ("glint.chunk=0/3", "glint.chunk=3/3", "glint.chunk"),
+            ("glint.units=0..2/6", "glint.units=2..2/6", "glint.units"),
+            ("glint.filtered=false", "glint.filtered=maybe", "glint.filtered"),
+            ("glint.format=glint-chunk 2", "glint.format=glint-chunk 1", "format"),
+        ] {
+            let mut t = table.clone();
+            t.attributes[0].1 = t.attributes[0].1.replace(from, to);
+            let e = Chunk::from_table(&path, &t).expect_err(to).to_string();
+            assert!(e.contains(needle) && e.contains("part_0.exr"), "{to}: {e}");
+        }
+        // A table of another size than the header's region.
+        let mut t = table.clone();
+        t.height = 1;
+        let e = Chunk::from_table(&path, &t).expect_err("table size").to_string();
+        assert!(e.contains("its table is 3x1, where the header says 3x2"), "{e}");
+        // A Whitted header over a path table: of some samples, its records would be taller;
+        // of all of them, its channels are not there.
+        let mut t = table.clone();
+        t.attributes[0].1 = t.attributes[0].1.replace("glint.kind=path", "glint.kind=whitted");
+        let e = Chunk::from_table(&path, &t).expect_err("whitted share").to_string();
+        assert!(e.contains("its table is 3x2, where the header says 3x4"), "{e}");
+        let (path, whole) = chunk(0, 1, 3);
+        let mut t = whole.to_table();
+        t.attributes[0].1 = t.attributes[0].1.replace("glint.kind=path", "glint.kind=whitted");
+        let e = Chunk::from_table(&path, &t).expect_err("whitted").to_string();
+        assert!(e.contains("channel whitted.R is missing"), "{e}");
     }
 
     #[test]
