@@ -79,34 +79,43 @@ pub fn filters(a: &BenchFiltersArgs) -> Result<()> {
         let guide = buffers.guide();
         let input = [&buffers.indirect[0][..], &buffers.indirect[1][..], &buffers.indirect[2][..]];
         let base = GuidedParams::for_width(w as usize);
-        let mut cases: Vec<(String, Filter)> = Vec::new();
+        // Each case with the f32 planes it must stream at the least: its inputs read once and its
+        // three outputs written once (A-Trous: every iteration reads colour, normal and depth
+        // and writes colour; the 1-D guide is made from the three normal planes).
+        let mut cases: Vec<(String, Filter, usize)> = Vec::new();
         for r in [16, 24, 32] {
             let p = BilateralParams { radius: r, ..BilateralParams::for_width(w as usize) };
-            cases.push((format!("cross-bilateral r={r}"), Filter::Bilateral(p)));
+            cases.push((format!("cross-bilateral r={r}"), Filter::Bilateral(p), 10));
         }
         for it in [4, 5, 6] {
             cases.push((
                 format!("A-Trous {it} iterations"),
                 Filter::Atrous(AtrousParams { iterations: it, ..AtrousParams::default() }),
+                10 * it as usize,
             ));
         }
-        for (label, channels) in
-            [("1-D", GuideChannels::Grey), ("3-D", GuideChannels::Normal), ("4-D", GuideChannels::NormalDepth)]
-        {
-            cases
-                .push((format!("guided {label} r={}", base.radius), Filter::Guided(GuidedParams { channels, ..base })));
+        for (label, channels, planes) in [
+            ("1-D", GuideChannels::Grey, 9),
+            ("3-D", GuideChannels::Normal, 9),
+            ("4-D", GuideChannels::NormalDepth, 10),
+        ] {
+            let filter = Filter::Guided(GuidedParams { channels, ..base });
+            cases.push((format!("guided {label} r={}", base.radius), filter, planes));
         }
         for r in [8, 16, 32, 64] {
-            cases.push((format!("guided 4-D r={r}"), Filter::Guided(GuidedParams { radius: r, ..base })));
+            cases.push((format!("guided 4-D r={r}"), Filter::Guided(GuidedParams { radius: r, ..base }), 10));
         }
         out!(
             "# glint bench filters: {name} indirect buffer {w}x{h}, {} threads, median of {} runs",
             rayon::current_num_threads(),
             a.reps
         );
-        out!("{:<28} {:>10} {:>10}", "filter", "median ms", "min ms");
+        let memory = super::stream::measure()?;
+        out!("# {}", memory.line());
+        out!("# GB/s: the planes each filter must read and write at the least (4 bytes a pixel each), over its median");
+        out!("{:<28} {:>10} {:>10} {:>8} {:>12}", "filter", "median ms", "min ms", "GB/s", "of triad");
         let mut medians = Vec::with_capacity(cases.len());
-        for (label, filter) in &cases {
+        for (label, filter, planes) in &cases {
             let reps = if matches!(filter, Filter::Bilateral(_)) { a.reps.min(3) } else { a.reps };
             let mut times = Vec::with_capacity(reps);
             for _ in 0..reps.max(1) {
@@ -117,7 +126,8 @@ pub fn filters(a: &BenchFiltersArgs) -> Result<()> {
             }
             let min = times.iter().copied().fold(f64::INFINITY, f64::min);
             let m = median(&mut times);
-            out!("{:<28} {:>10.2} {:>10.2}", label, m, min);
+            let gbs = super::stream::gbs((planes * 4 * w as usize * h as usize) as f64, m);
+            out!("{:<28} {:>10.2} {:>10.2} {:>8.1} {:>11.0} %", label, m, min, gbs, 100.0 * gbs / memory.triad_gbs);
             medians.push((label.clone(), m));
         }
         if a.check {

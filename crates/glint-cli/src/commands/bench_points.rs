@@ -10,7 +10,7 @@ use crate::cli::{BenchPointsArgs, PointArgs, clap_defaults};
 use crate::input;
 use anyhow::{Context, Result, bail};
 use glint_formats::points::PointReadOptions;
-use glint_render::points::{Fill, PointSettings};
+use glint_render::points::{Fill, PassBytes, PointSettings};
 use glint_render::{FrameStats, Hooks, ImageSettings, Mode, Renderer, WhittedSettings};
 use glint_scene::Scene;
 use std::io::Write;
@@ -84,8 +84,11 @@ pub fn run(args: &BenchPointsArgs) -> Result<()> {
     let pool = input::thread_pool(args.threads)?;
     pool.install(|| -> Result<()> {
         out!("threads: {}, reps: {} (medians)", rayon::current_num_threads(), args.reps);
-        out!("| cloud | points | image | fill | frame ms | fps | project ms | pull-push ms | shade ms | M points/s | projection M points/s | coverage |");
-        out!("|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+        let memory = super::stream::measure()?;
+        out!("{}", memory.line());
+        out!("GB/s: the bytes each stage streams at the least (PassBytes: its frame-sized buffers read or written once) over its median, project / pull-push / shade");
+        out!("| cloud | points | image | fill | frame ms | fps | project ms | pull-push ms | shade ms | M points/s | projection M points/s | coverage | GB/s | of triad |");
+        out!("|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|");
         for name in &names {
             let mut scene = load_cloud(name, &args.data)?;
             super::points::prepare_clouds(&mut scene, &clap_defaults::<PointArgs>()?, true)?;
@@ -118,15 +121,21 @@ pub fn run(args: &BenchPointsArgs) -> Result<()> {
                     let total = med(&|s| s.elapsed.as_secs_f64() * 1e3);
                     let project = med(&stage("project"));
                     let points = runs[0].points as f64;
+                    let (pull_push, shade) = (med(&stage("pull-push")), med(&stage("shade")));
+                    let bytes = PassBytes::of_frame(runs[0].points, side, side);
+                    let gbs = [(bytes.project, project), (bytes.pull_push, pull_push), (bytes.shade, shade)]
+                        .map(|(b, ms)| super::stream::gbs(b, ms));
+                    let of_triad = gbs.map(|g| format!("{:.0} %", 100.0 * g / memory.triad_gbs)).join(" / ");
                     out!(
-                        "| {name} | {points} | {side}² | {} | {total:.2} | {:.1} | {project:.2} | {:.2} | {:.2} | {:.1} | {:.0} | {:.3} |",
+                        "| {name} | {points} | {side}² | {} | {total:.2} | {:.1} | {project:.2} | {pull_push:.2} | {shade:.2} | {:.1} | {:.0} | {:.3} | {:.1} / {:.1} / {:.1} | {of_triad} |",
                         fill_name(fill),
                         1e3 / total,
-                        med(&stage("pull-push")),
-                        med(&stage("shade")),
                         points / total * 1e-3,
                         points / project * 1e-3,
-                        coverage
+                        coverage,
+                        gbs[0],
+                        gbs[1],
+                        gbs[2]
                     );
                 }
             }

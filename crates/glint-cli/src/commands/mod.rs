@@ -18,6 +18,7 @@ mod merge;
 mod points;
 mod render;
 mod sky;
+mod stream;
 mod view;
 
 use crate::cli::{Cli, Command, RenderArgs, clap_defaults};

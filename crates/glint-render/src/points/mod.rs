@@ -201,6 +201,46 @@ impl PointFrame {
     }
 }
 
+/// The bytes each stage of a frame streams at the least, as the buffers are laid out: every
+/// frame-sized buffer a stage touches read or written once (what a pass would move if it ran at
+/// the memory's speed; BENCHMARKS.md sets it beside a STREAM triad of the same run). Random
+/// accesses (the projection's scatter, the gather of winning points) cost whole cache lines on
+/// top of this.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PassBytes {
+    /// Each point's 16-byte stream record read, each pixel's depth word written.
+    pub project: f64,
+    /// Gather (depth words read, the winners' attributes written), the pull of level 1 (depth
+    /// words and attributes read, level 1 written), the coarser levels (a third of level 1, read
+    /// and written by the pull and the push) and the final push (depth words, attributes and
+    /// level 1 read, the G-buffer written).
+    pub pull_push: f64,
+    /// The G-buffer read, the colour written.
+    pub shade: f64,
+}
+
+impl PassBytes {
+    #[must_use]
+    pub fn of_frame(points: u64, width: u32, height: u32) -> Self {
+        use std::mem::size_of;
+        let px = f64::from(width) * f64::from(height);
+        let word = size_of::<AtomicU64>() as f64;
+        let gathered = size_of::<(u32, prepared::PointAttributes)>() as f64;
+        let texel = size_of::<Texel>() as f64;
+        let level1 = texel * px / 4.0;
+        let gbuffer = (size_of::<f32>() + size_of::<Vec3>() + size_of::<Rgb>() + size_of::<u32>()) as f64;
+        let colour = size_of::<Rgb>() as f64;
+        Self {
+            project: points as f64 * size_of::<prepared::StreamPoint>() as f64 + px * word,
+            pull_push: px * (word + gathered)
+                + (px * (word + gathered) + level1)
+                + 4.0 * level1 / 3.0
+                + (px * (word + gathered + gbuffer) + level1),
+            shade: px * (gbuffer + colour),
+        }
+    }
+}
+
 /// Draws a scene's point clouds; keeps its buffers from frame to frame.
 pub struct PointRenderer {
     points: PreparedPoints,
