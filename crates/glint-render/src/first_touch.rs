@@ -4,7 +4,9 @@
 //! buffer (the viewer's, a benchmark's) never pays. Growing it with rayon's indexed
 //! `par_extend` writes the new elements, and so takes the faults, on every thread.
 
+use glint_core::memory::MemoryError;
 use rayon::prelude::*;
+use std::sync::Mutex;
 
 /// [`Vec::resize`], with the new elements written in parallel.
 pub(crate) fn resize<T: Clone + Send + Sync>(v: &mut Vec<T>, len: usize, value: T) {
@@ -13,6 +15,46 @@ pub(crate) fn resize<T: Clone + Send + Sync>(v: &mut Vec<T>, len: usize, value: 
     } else {
         let grow = len - v.len();
         v.par_extend(rayon::iter::repeat_n(value, grow));
+    }
+}
+
+/// `len` copies of `value`: the elements kept from before overwritten, the new ones grown,
+/// both on every thread (a reused frame buffer cleared without a page fault).
+pub(crate) fn refill<T: Clone + Send + Sync>(v: &mut Vec<T>, len: usize, value: T) {
+    v.truncate(len);
+    v.par_iter_mut().with_min_len(1024).for_each(|x| *x = value.clone());
+    resize(v, len, value);
+}
+
+/// One frame buffer kept between frames, so that the next frame of the same size neither maps
+/// nor zeroes fresh pages (`static POOL: Pool<T> = Pool::new()` beside the code that uses it).
+pub(crate) struct Pool<T>(Mutex<Option<Vec<T>>>);
+
+impl<T: Clone + Send + Sync> Pool<T> {
+    pub(crate) const fn new() -> Self {
+        Self(Mutex::new(None))
+    }
+
+    /// `len` copies of `value`, in the kept buffer when it is large enough (else in a new one,
+    /// checked against the memory budget), written on every thread ([`refill`]).
+    ///
+    /// # Errors
+    /// [`MemoryError`] when a new buffer is needed and the budget or the allocator refuses it.
+    pub(crate) fn take(&self, len: usize, value: T, what: impl Fn() -> String) -> Result<Vec<T>, MemoryError> {
+        let kept = self.0.lock().ok().and_then(|mut p| p.take()).filter(|v| v.capacity() >= len);
+        let mut v = match kept {
+            Some(v) => v,
+            None => glint_core::memory::try_with_capacity(what, len)?,
+        };
+        refill(&mut v, len, value);
+        Ok(v)
+    }
+
+    /// Keep `v` for the next [`Pool::take`] (replacing what was kept: one buffer at most).
+    pub(crate) fn give(&self, v: Vec<T>) {
+        if let Ok(mut kept) = self.0.lock() {
+            *kept = Some(v);
+        }
     }
 }
 
@@ -26,5 +68,29 @@ mod tests {
         assert!(v[3..].iter().all(|&x| x == 7));
         super::resize(&mut v, 2, 0);
         assert_eq!(v, [1, 2]);
+    }
+
+    #[test]
+    fn refill_overwrites_every_element() {
+        let mut v: Vec<u32> = (0..50_000).collect();
+        super::refill(&mut v, 70_000, 9);
+        assert_eq!(v.len(), 70_000);
+        assert!(v.iter().all(|&x| x == 9));
+        super::refill(&mut v, 3, 1);
+        assert_eq!(v, [1, 1, 1]);
+    }
+
+    #[test]
+    fn a_pool_hands_back_its_buffer_cleared() {
+        static POOL: super::Pool<u64> = super::Pool::new();
+        let mut v = POOL.take(1000, 5, String::new).expect("small");
+        v[10] = 77;
+        let at = v.as_ptr();
+        POOL.give(v);
+        let again = POOL.take(900, 0, String::new).expect("small");
+        assert_eq!((again.as_ptr(), again.len()), (at, 900), "the same memory");
+        assert!(again.iter().all(|&x| x == 0));
+        POOL.give(again);
+        assert_eq!(POOL.take(2000, 1, String::new).expect("small").len(), 2000, "a larger size gets new memory");
     }
 }

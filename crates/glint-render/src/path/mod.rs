@@ -50,6 +50,9 @@ use wavefront::{Request, Wavefront};
 /// Rows per unit of parallel work.
 const BAND_ROWS: usize = 4;
 
+/// The last frame's (or pass's) guide rays, kept for the next one.
+static GUIDES: crate::first_touch::Pool<GuidePixel> = crate::first_touch::Pool::new();
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PathSettings {
     /// Samples per pixel in each pass (the first is the guide ray).
@@ -418,6 +421,7 @@ pub fn render_path(
     let (mut stats, sums) = render_path_sums(world, camera, image, path, Share::WHOLE, None, hooks)?;
     let start = Instant::now();
     sums.resolve(film)?;
+    sums.recycle();
     stats.elapsed += start.elapsed();
     Ok(stats)
 }
@@ -467,9 +471,9 @@ pub fn render_path_sums(
     let start = Instant::now();
     let frame = Frame::new(world, camera, image, path);
     let what = || format!("the path accumulator of a {} x {} image", region.width, region.height);
-    // Grown on every thread (its pages are faulted in on each, not serially on this one).
-    let mut acc = glint_core::memory::try_with_capacity(what, region.pixels())?;
-    crate::first_touch::resize(&mut acc, region.pixels(), PixelSums::default());
+    // The last frame's memory when it fits; else grown on every thread (its pages are faulted
+    // in on each, not serially on this one).
+    let mut acc = sums::POOL.take(region.pixels(), PixelSums::default(), what)?;
     let mut first: Option<Vec<GuidePixel>> = None;
     let mut stats = FrameStats::default();
     let (mut trace, mut filter) = (Duration::ZERO, Duration::ZERO);
@@ -505,6 +509,8 @@ pub fn render_path_sums(
         }
         if unit == 0 {
             first = Some(guides);
+        } else {
+            GUIDES.give(guides);
         }
         unit = step_end;
         passes += 1;
@@ -521,30 +527,32 @@ pub fn render_path_sums(
         }
     }
     let samples = if filtered { (unit - units.start) * spp } else { unit - units.start };
-    let region_pixels = |g: Vec<GuidePixel>| -> Vec<GuidePixel> {
-        if !tiled {
-            return g;
-        }
+    let region_pixels = |g: &[GuidePixel]| -> Vec<GuidePixel> {
         let (x0, w) = (region.x0 as usize, image.width as usize);
         (region.y0 as usize..(region.y0 + region.height) as usize)
             .flat_map(|y| g[y * w + x0..][..region.width as usize].iter().copied())
             .collect()
     };
+    let first_sample = |g: &GuidePixel| FirstSample {
+        normal: g.sample.guide.map_or(Vec3::ZERO, |q| q.normal),
+        albedo: g.sample.albedo,
+        depth: g.sample.guide.map_or(f32::INFINITY, |q| q.depth),
+    };
+    let first = first.map(|g| {
+        let samples = match tiled {
+            true => region_pixels(&g).par_iter().map(first_sample).collect(),
+            false => g.par_iter().map(first_sample).collect(),
+        };
+        GUIDES.give(g);
+        samples
+    });
     let sums = PathSums {
         width: region.width,
         height: region.height,
         filtered,
         units: unit - units.start,
         pixels: acc,
-        first: first.map(region_pixels).map(|g| {
-            g.iter()
-                .map(|g| FirstSample {
-                    normal: g.sample.guide.map_or(Vec3::ZERO, |q| q.normal),
-                    albedo: g.sample.albedo,
-                    depth: g.sample.guide.map_or(f32::INFINITY, |q| q.depth),
-                })
-                .collect()
-        }),
+        first,
     };
     stats.passes = passes;
     stats.samples_per_pixel = samples as u32;
@@ -577,8 +585,8 @@ fn trace_guides(
     let w = frame.width;
     let band_len = w * BAND_ROWS;
     let filtered = path.filtered();
-    let mut guides = Vec::new();
-    crate::first_touch::resize(&mut guides, frame.image.pixels(), GuidePixel::default());
+    let what = || format!("the guide rays of a {} x {} image", frame.width, frame.image.height);
+    let mut guides = GUIDES.take(frame.image.pixels(), GuidePixel::default(), what)?;
     let parts: Vec<(&mut [GuidePixel], &mut [PixelSums])> = if filtered {
         guides.chunks_mut(band_len).map(|g| (g, &mut [][..])).collect()
     } else {

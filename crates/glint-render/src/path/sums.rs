@@ -6,8 +6,10 @@
 
 use crate::RenderError;
 use crate::film::{Film, FilmPixel};
+use crate::first_touch::Pool;
 use crate::fixed::{self, Square};
 use glint_core::{Rgb, Vec3};
+use rayon::prelude::*;
 
 /// One pixel's sums over the samples of the passes it holds.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -124,7 +126,9 @@ impl PathSums {
         film.path_aovs = true;
         film.variance = !self.filtered;
         let none = FirstSample::default();
-        for (i, (p, a)) in film.pixels.iter_mut().zip(&self.pixels).enumerate() {
+        // Independent pixels, on every thread (a 1024 × 768 frame's nine 128-bit means per pixel
+        // took ~30 ms on one).
+        film.pixels.par_iter_mut().zip(&self.pixels).enumerate().with_min_len(1024).for_each(|(i, (p, a))| {
             let n = u64::from(a.samples);
             let first = self.first.as_ref().map_or(&none, |f| &f[i]);
             *p = FilmPixel {
@@ -138,7 +142,16 @@ impl PathSums {
                 samples: a.samples as f32,
                 variance: if self.filtered { Rgb::ZERO } else { a.variance() },
             };
-        }
+        });
         Ok(())
     }
+
+    /// Give the pixels' memory back for the next frame's sums ([`POOL`]).
+    pub(crate) fn recycle(self) {
+        POOL.give(self.pixels);
+    }
 }
+
+/// The last frame's sums (a 1024 × 768 frame's are 200 MB: their page faults were ~4 % of a
+/// Sponza path frame).
+pub(crate) static POOL: Pool<PixelSums> = Pool::new();
