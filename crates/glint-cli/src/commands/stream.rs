@@ -30,7 +30,7 @@ impl Bandwidth {
     pub fn line(&self) -> String {
         format!(
             "memory (STREAM-like, {} MiB f32 arrays, {} threads, median of {REPS}): copy {:.1} GB/s, triad {:.1} GB/s",
-            ELEMENTS * 4 >> 20,
+            (ELEMENTS * 4) >> 20,
             self.threads,
             self.copy_gbs,
             self.triad_gbs
@@ -48,7 +48,7 @@ pub fn measure() -> Result<Bandwidth> {
     let alloc = |fill: f32| -> Result<Vec<f32>> {
         let mut v: Vec<f32> = Vec::new();
         v.try_reserve_exact(ELEMENTS)
-            .map_err(|e| anyhow!("the bandwidth measurement's {} MiB arrays: {e}", ELEMENTS * 4 >> 20))?;
+            .map_err(|e| anyhow!("the bandwidth measurement's {} MiB arrays: {e}", (ELEMENTS * 4) >> 20))?;
         v.resize(ELEMENTS, 0.0);
         // The first touch (the zeroing above may be lazy pages) on the threads that stream it.
         v.par_chunks_mut(PIECE).for_each(|c| c.fill(fill));
