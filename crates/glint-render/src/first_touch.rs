@@ -50,6 +50,11 @@ impl<T: Clone + Send + Sync> Pool<T> {
         Ok(v)
     }
 
+    /// Whether a [`Pool::take`] of `len` elements would reuse the kept buffer.
+    pub(crate) fn fits(&self, len: usize) -> bool {
+        self.0.lock().is_ok_and(|p| p.as_ref().is_some_and(|v| v.capacity() >= len))
+    }
+
     /// Keep `v` for the next [`Pool::take`] (replacing what was kept: one buffer at most).
     pub(crate) fn give(&self, v: Vec<T>) {
         if let Ok(mut kept) = self.0.lock() {
@@ -89,8 +94,10 @@ mod tests {
         POOL.give(v);
         let again = POOL.take(900, 0, String::new).expect("small");
         assert_eq!((again.as_ptr(), again.len()), (at, 900), "the same memory");
+        assert!(!POOL.fits(10), "taken: nothing kept");
         assert!(again.iter().all(|&x| x == 0));
         POOL.give(again);
+        assert!(POOL.fits(1000) && !POOL.fits(1001));
         assert_eq!(POOL.take(2000, 1, String::new).expect("small").len(), 2000, "a larger size gets new memory");
     }
 }

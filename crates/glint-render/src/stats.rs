@@ -51,6 +51,9 @@ impl BandStats {
 pub struct FrameStats {
     /// Wall time of the whole frame.
     pub elapsed: Duration,
+    /// Once-per-size work before the frame, not part of `elapsed`: the points mode's buffers
+    /// sized and first touched for an image size not drawn before (zero for later frames).
+    pub setup: Duration,
     /// Named stages in order ("trace", "filter", "project", "pull-push", "shade", ...).
     pub stages: Vec<(&'static str, Duration)>,
     pub rays: RayCounts,

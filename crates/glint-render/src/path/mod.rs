@@ -468,11 +468,22 @@ pub fn render_path_sums(
         None => Region::whole(image.width, image.height),
     };
     let tiled = region != Region::whole(image.width, image.height);
+    // The sums and guide buffers: the last frame's memory when it fits, cleared in the frame;
+    // else made and first touched on every thread before the frame's clock starts, and
+    // reported apart (`FrameStats::setup`), so that the first frame of a process (`glint
+    // render`) times what a benchmark's or the viewer's later frames time.
+    let setup = Instant::now();
+    let fresh = !sums::POOL.fits(region.pixels()) || !GUIDES.fits(image.pixels());
+    if fresh {
+        let what = || format!("the path accumulator of a {} x {} image", region.width, region.height);
+        sums::POOL.give(sums::POOL.take(region.pixels(), PixelSums::default(), what)?);
+        let what = || format!("the guide rays of a {} x {} image", image.width, image.height);
+        GUIDES.give(GUIDES.take(image.pixels(), GuidePixel::default(), what)?);
+    }
+    let setup = if fresh { setup.elapsed() } else { Duration::ZERO };
     let start = Instant::now();
     let frame = Frame::new(world, camera, image, path);
     let what = || format!("the path accumulator of a {} x {} image", region.width, region.height);
-    // The last frame's memory when it fits; else grown on every thread (its pages are faulted
-    // in on each, not serially on this one).
     let mut acc = sums::POOL.take(region.pixels(), PixelSums::default(), what)?;
     let mut first: Option<Vec<GuidePixel>> = None;
     let mut stats = FrameStats::default();
@@ -558,6 +569,7 @@ pub fn render_path_sums(
     stats.samples_per_pixel = samples as u32;
     stats.paths = region.pixels() as u64 * samples;
     stats.elapsed = start.elapsed();
+    stats.setup = setup;
     stats.stages = vec![("trace", trace), ("filter", filter)];
     Ok((stats, sums))
 }

@@ -124,6 +124,9 @@ pub struct PointStats {
     pub points: u64,
     /// Pixels a point won.
     pub projected_pixels: u64,
+    /// Sizing the frame's buffers for a new image size (their first touch); 0 when the size
+    /// was drawn before. Not part of `total_ms`: a once-per-size cost, like the layout.
+    pub buffers_ms: f64,
     pub clear_ms: f64,
     pub project_ms: f64,
     /// Pull and push, down to the G-buffer.
@@ -290,16 +293,14 @@ impl PointRenderer {
                 camera.lens
             )));
         }
-        let start = Instant::now();
+        let sizing = Instant::now();
         let (w, h) = (image.width, image.height);
+        let resized = self.size_buffers(w, h, settings.fill, frame);
+        let start = Instant::now();
+        let buffers_ms = if resized { (start - sizing).as_secs_f64() * 1e3 } else { 0.0 };
         let view = View::new(camera, w, h);
         let clouds = cloud_views(&self.points, &view, settings.cull);
-        frame.resize(w, h);
-
-        let n = w as usize * h as usize;
-        if self.depth.len() != n {
-            self.depth = (0..n).into_par_iter().map(|_| AtomicU64::new(EMPTY)).collect();
-        } else {
+        if !resized {
             self.depth.par_chunks(1 << 14).for_each(|c| c.iter().for_each(|d| d.store(EMPTY, Ordering::Relaxed)));
         }
         let t_clear = Instant::now();
@@ -326,12 +327,50 @@ impl PointRenderer {
         Ok(PointStats {
             points: self.points.len() as u64,
             projected_pixels: projected as u64,
+            buffers_ms,
             clear_ms: ms(start, t_clear),
             project_ms: ms(t_clear, t_project),
             pull_push_ms: ms(t_project, t_pull_push),
             shade_ms: ms(t_pull_push, t_shade),
             total_ms: ms(start, t_shade),
         })
+    }
+
+    /// Give every frame-sized buffer (depth words, gathered attributes, pyramid levels, the
+    /// G-buffer and colour) the size of a `width × height` frame, first touched on every
+    /// thread, and the depth words cleared. Returns whether anything was resized: a size seen
+    /// before costs nothing, a new one costs the page faults of ~80 bytes a pixel, which a
+    /// single frame (`glint render`) would otherwise pay inside its passes and a benchmark's
+    /// or the viewer's later frames never do; [`PointStats::buffers_ms`] reports it apart.
+    fn size_buffers(&mut self, width: u32, height: u32, fill: Fill, frame: &mut PointFrame) -> bool {
+        let n = width as usize * height as usize;
+        let count =
+            if matches!(fill, Fill::PullPush | Fill::Ellipses) { pyramid::level_count(width, height) } else { 0 };
+        let sized = self.depth.len() == n
+            && frame.width == width
+            && frame.height == height
+            && frame.depth.len() == n
+            && self.gathered.len() == n
+            && self.levels.len() >= count;
+        if sized {
+            return false;
+        }
+        frame.resize(width, height);
+        if self.depth.len() != n {
+            self.depth = (0..n).into_par_iter().map(|_| AtomicU64::new(EMPTY)).collect();
+        } else {
+            self.depth.par_chunks(1 << 14).for_each(|c| c.iter().for_each(|d| d.store(EMPTY, Ordering::Relaxed)));
+        }
+        let empty = prepared::PointAttributes { radius: 0.0, colour: 0 };
+        first_touch::resize(&mut self.gathered, n, (0, empty));
+        self.levels.resize_with(count.max(self.levels.len()), pyramid::Level::default);
+        let (mut w, mut h) = (width, height);
+        for level in self.levels.iter_mut().take(count) {
+            w = w.div_ceil(2);
+            h = h.div_ceil(2);
+            level.resize(w, h);
+        }
+        true
     }
 
     /// The depth word of pixel (x, y), [`EMPTY`] outside the image.
