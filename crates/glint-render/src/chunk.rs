@@ -838,7 +838,7 @@ mod tests {
         let all: Vec<_> = (0..3).map(|i| chunk(i, 3, 3)).collect();
         let merged = merge(all.iter().rev().cloned().map(Ok)).expect("merge");
         let p = merged.film.pixels[0];
-        assert_eq!(p.samples, 6.0);
+        assert_eq!(merged.film.path[0].samples, 6.0);
         assert_eq!(p.coverage, 0.5);
         assert_eq!(p.depth, 2.5, "the first sample's AOVs");
         let refused = |set: Vec<(PathBuf, Chunk)>, needle: &str| {

@@ -13,9 +13,11 @@ use rayon::prelude::*;
 /// (the sun's radiance is about 1.6e9 W sr⁻¹ m⁻²).
 pub const MAX_SAMPLE_RADIANCE: f32 = 1e15;
 
-/// What one pixel accumulated. Colour is the box-filtered average of its samples; normal and
-/// albedo average over the samples that hit a surface, depth too (linear eye-space distance
-/// along the view axis, +inf where no sample hit); coverage is the fraction of samples that hit.
+/// What one pixel accumulated, in every mode. Colour is the box-filtered average of its
+/// samples; normal and albedo average over the samples that hit a surface, depth too (linear
+/// eye-space distance along the view axis, +inf where no sample hit); coverage is the fraction
+/// of samples that hit. 44 bytes: the path mode's own AOVs live beside it in [`PathAovs`], so
+/// a Whitted or points frame neither writes nor first-touches them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FilmPixel {
     pub colour: Rgb,
@@ -23,43 +25,43 @@ pub struct FilmPixel {
     pub albedo: Rgb,
     pub depth: f32,
     pub coverage: f32,
-    /// Path mode: direct light (next-event estimation at the first non-delta vertex).
-    pub direct: Rgb,
-    /// Path mode: diffuse indirect light, incident and demodulated (the beauty's diffuse
-    /// indirect part is `albedo × indirect`), as it went into the beauty (filtered or not).
-    pub indirect: Rgb,
-    /// Path mode: samples that went into the pixel.
-    pub samples: f32,
-    /// Path mode without a filter: the variance of one sample's radiance at this pixel (the
-    /// sample variance of its samples, as Mitsuba's `moment` integrator gives it), so that
-    /// `variance / samples` is the variance of `colour`. Zero elsewhere.
-    pub variance: Rgb,
 }
 
 impl Default for FilmPixel {
     fn default() -> Self {
-        Self {
-            colour: Rgb::ZERO,
-            normal: Vec3::ZERO,
-            albedo: Rgb::ZERO,
-            depth: f32::INFINITY,
-            coverage: 0.0,
-            direct: Rgb::ZERO,
-            indirect: Rgb::ZERO,
-            samples: 0.0,
-            variance: Rgb::ZERO,
-        }
+        Self { colour: Rgb::ZERO, normal: Vec3::ZERO, albedo: Rgb::ZERO, depth: f32::INFINITY, coverage: 0.0 }
     }
+}
+
+/// The path mode's AOVs of one pixel ([`Film::path`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PathAovs {
+    /// Direct light (next-event estimation at the first non-delta vertex).
+    pub direct: Rgb,
+    /// Diffuse indirect light, incident and demodulated (the beauty's diffuse indirect part is
+    /// `albedo × indirect`), as it went into the beauty (filtered or not).
+    pub indirect: Rgb,
+    /// Samples that went into the pixel.
+    pub samples: f32,
+    /// Without a filter: the variance of one sample's radiance at this pixel (the sample
+    /// variance of its samples, as Mitsuba's `moment` integrator gives it), so that
+    /// `variance / samples` is the variance of `colour`. Zero elsewhere.
+    pub variance: Rgb,
 }
 
 /// A named channel and how to read it from a pixel.
 type ChannelReader = (&'static str, fn(&FilmPixel) -> f32);
+/// A named path AOV channel and how to read it.
+type PathChannelReader = (&'static str, fn(&PathAovs) -> f32);
 
 #[derive(Clone, Debug)]
 pub struct Film {
     pub width: u32,
     pub height: u32,
     pub pixels: Vec<FilmPixel>,
+    /// The path mode's AOVs, one per pixel when `path_aovs` (else stale or empty): written
+    /// through [`Film::path_aovs_mut`].
+    pub path: Vec<PathAovs>,
     /// The path mode's AOVs (Direct, Indirect, SampleCount) are meaningful and written.
     pub path_aovs: bool,
     /// The per-pixel sample variance is meaningful (path mode without a filter) and written
@@ -87,10 +89,10 @@ impl Film {
         let count = width as usize * height as usize;
         let mut pixels = memory::try_with_capacity(what, count)?;
         // Filled (and so first touched, page by page) on every thread: a single frame's film
-        // is 174 MB at 1920 × 1080, whose page faults on one thread cost about as much as the
+        // is 91 MB at 1920 × 1080, whose page faults on one thread cost about as much as the
         // whole Whitted frame.
         crate::first_touch::resize(&mut pixels, count, FilmPixel::default());
-        Ok(Self { width, height, pixels, path_aovs: false, variance: false })
+        Ok(Self { width, height, pixels, path: Vec::new(), path_aovs: false, variance: false })
     }
 
     /// Make this a `width × height` film for a new frame, reusing its memory when the size is
@@ -108,6 +110,31 @@ impl Film {
         self.path_aovs = false;
         self.variance = false;
         Ok(())
+    }
+
+    /// The pixels and their path AOVs, to be written (the AOVs marked meaningful): the AOVs are
+    /// sized to the film on first use (in the memory budget, grown on every thread), then
+    /// reused.
+    ///
+    /// # Errors
+    /// [`MemoryError`] when the budget or the allocator refuses them.
+    pub fn path_aovs_mut(&mut self) -> Result<(&mut [FilmPixel], &mut [PathAovs]), MemoryError> {
+        let count = self.pixels.len();
+        if self.path.len() != count {
+            let (w, h) = (self.width, self.height);
+            let what = || format!("the path AOVs of a {w} x {h} image ({} bytes per pixel)", size_of::<PathAovs>());
+            self.path = Vec::new();
+            self.path = memory::try_with_capacity(what, count)?;
+            crate::first_touch::resize(&mut self.path, count, PathAovs::default());
+        }
+        self.path_aovs = true;
+        Ok((&mut self.pixels, &mut self.path))
+    }
+
+    /// The path AOVs of pixel (x, y) when the film holds them.
+    #[must_use]
+    pub fn path_pixel(&self, x: u32, y: u32) -> Option<&PathAovs> {
+        self.path_aovs.then(|| &self.path[y as usize * self.width as usize + x as usize])
     }
 
     /// Take `other`'s pixel wherever it saw a surface nearer than this film's (both of one
@@ -131,7 +158,7 @@ impl Film {
     pub fn beauty_image(&self, alpha: bool) -> Image {
         let chans: [ChannelReader; 4] =
             [("R", |p| p.colour.x), ("G", |p| p.colour.y), ("B", |p| p.colour.z), ("A", |p| p.coverage)];
-        self.image_of(&chans[..if alpha { 4 } else { 3 }])
+        planes_of(&self.pixels, self.width, self.height, &chans[..if alpha { 4 } else { 3 }])
     }
 
     /// Beauty and every AOV as named channels (EXR names: pbrt-v4's where it has them):
@@ -139,7 +166,7 @@ impl Film {
     /// SampleCount, and without a filter Variance.R/G/B (docs/aovs.md).
     #[must_use]
     pub fn aov_image(&self) -> Image {
-        let chans: [ChannelReader; 21] = [
+        let chans: [ChannelReader; 11] = [
             ("R", |p| p.colour.x),
             ("G", |p| p.colour.y),
             ("B", |p| p.colour.z),
@@ -151,6 +178,8 @@ impl Film {
             ("Ns.Y", |p| p.normal.y),
             ("Ns.Z", |p| p.normal.z),
             ("Z", |p| p.depth),
+        ];
+        let path: [PathChannelReader; 10] = [
             ("Direct.R", |p| p.direct.x),
             ("Direct.G", |p| p.direct.y),
             ("Direct.B", |p| p.direct.z),
@@ -162,37 +191,39 @@ impl Film {
             ("Variance.G", |p| p.variance.y),
             ("Variance.B", |p| p.variance.z),
         ];
-        let len = match (self.path_aovs, self.variance) {
-            (true, true) => 21,
-            (true, false) => 18,
-            _ => 11,
-        };
-        self.image_of(&chans[..len])
-    }
-
-    /// The named planes, filled in parallel (one pass over the pixels per band of rows).
-    fn image_of(&self, chans: &[ChannelReader]) -> Image {
-        let n = self.pixels.len();
-        let mut planes: Vec<Vec<f32>> = chans.iter().map(|_| vec![0.0; n]).collect();
-        let rows = (self.width as usize).max(1) * 16;
-        let mut bands: Vec<Vec<&mut [f32]>> = (0..n.div_ceil(rows)).map(|_| Vec::new()).collect();
-        for plane in &mut planes {
-            for (band, chunk) in bands.iter_mut().zip(plane.chunks_mut(rows)) {
-                band.push(chunk);
-            }
-        }
-        bands.into_par_iter().enumerate().for_each(|(b, mut outs)| {
-            let pixels = &self.pixels[b * rows..(b * rows + rows).min(n)];
-            for ((_, read), out) in chans.iter().zip(outs.iter_mut()) {
-                for (o, p) in out.iter_mut().zip(pixels) {
-                    *o = read(p);
-                }
-            }
-        });
-        let mut img = Image::new(self.width, self.height);
-        for ((name, _), data) in chans.iter().zip(planes) {
-            img.channels.push(glint_image::Channel { name: (*name).into(), data });
+        let mut img = planes_of(&self.pixels, self.width, self.height, &chans);
+        if self.path_aovs {
+            let len = if self.variance { 10 } else { 7 };
+            let extra = planes_of(&self.path, self.width, self.height, &path[..len]);
+            img.channels.extend(extra.channels);
         }
         img
     }
+}
+
+/// The named planes of `records` (one per pixel), filled in parallel (one pass over the records
+/// per band of rows).
+fn planes_of<T: Sync>(records: &[T], width: u32, height: u32, chans: &[(&'static str, fn(&T) -> f32)]) -> Image {
+    let n = records.len();
+    let mut planes: Vec<Vec<f32>> = chans.iter().map(|_| vec![0.0; n]).collect();
+    let rows = (width as usize).max(1) * 16;
+    let mut bands: Vec<Vec<&mut [f32]>> = (0..n.div_ceil(rows)).map(|_| Vec::new()).collect();
+    for plane in &mut planes {
+        for (band, chunk) in bands.iter_mut().zip(plane.chunks_mut(rows)) {
+            band.push(chunk);
+        }
+    }
+    bands.into_par_iter().enumerate().for_each(|(b, mut outs)| {
+        let records = &records[b * rows..(b * rows + rows).min(n)];
+        for ((_, read), out) in chans.iter().zip(outs.iter_mut()) {
+            for (o, p) in out.iter_mut().zip(records) {
+                *o = read(p);
+            }
+        }
+    });
+    let mut img = Image::new(width, height);
+    for ((name, _), data) in chans.iter().zip(planes) {
+        img.channels.push(glint_image::Channel { name: (*name).into(), data });
+    }
+    img
 }

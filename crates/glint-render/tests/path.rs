@@ -425,8 +425,12 @@ fn wavefront_and_recursive_tracers_agree_without_delta_lobes() {
         let (b, sb) = frame(PathKernel::Recursive);
         assert_eq!(sa.rays.total(), sb.rays.total(), "{p:?}: ray counts");
         let mut lit = 0;
+        assert!(a.path_aovs && b.path_aovs && a.path.len() == a.pixels.len() && b.path.len() == b.pixels.len());
         for (i, (x, y)) in a.pixels.iter().zip(&b.pixels).enumerate() {
-            for (u, v) in [(x.colour, y.colour), (x.direct, y.direct), (x.indirect, y.indirect), (x.albedo, y.albedo)] {
+            let (xp, yp) = (a.path[i], b.path[i]);
+            for (u, v) in
+                [(x.colour, y.colour), (xp.direct, yp.direct), (xp.indirect, yp.indirect), (x.albedo, y.albedo)]
+            {
                 let tol = 1e-4 * u.abs().max(v.abs()).max_element().max(1e-3);
                 assert!((u - v).abs().max_element() <= tol, "{p:?}: pixel {i}: {u} vs {v}");
             }
@@ -575,11 +579,11 @@ fn the_variance_aov_is_the_variance_of_one_sample() {
         let s = common::Settings { seed, ..settings(w as u32, h as u32) };
         let film = path_frame(&world, &s, &p).expect("render").0;
         assert!(film.variance);
-        for (i, px) in film.pixels.iter().enumerate() {
+        for (i, (px, aov)) in film.pixels.iter().zip(&film.path).enumerate() {
             let c = f64::from(px.colour.x);
             sum[i] += c;
             sum_sq[i] += c * c;
-            predicted += f64::from(px.variance.x) / f64::from(spp);
+            predicted += f64::from(aov.variance.x) / f64::from(spp);
         }
     }
     let n = frames as f64;

@@ -3,8 +3,8 @@
 
 use glint_core::Rgb;
 use glint_core::colour::linear_to_srgb;
-use glint_render::Film;
 use glint_render::points::PointFrame;
+use glint_render::{Film, PathAovs};
 use rayon::prelude::*;
 
 /// The channel on screen; the display key cycles through them.
@@ -96,13 +96,15 @@ struct Aovs {
 pub fn display(film: &Film, what: Display, pixels: &mut Vec<u32>) {
     display_with(film.pixels.len(), what, pixels, |i| {
         let p = &film.pixels[i];
+        // Only path frames have direct and indirect light: black elsewhere.
+        let path = if film.path_aovs { film.path[i] } else { PathAovs::default() };
         Aovs {
             colour: p.colour,
             normal: p.normal,
             albedo: p.albedo,
             depth: p.depth,
-            direct: p.direct,
-            indirect: p.indirect,
+            direct: path.direct,
+            indirect: path.indirect,
         }
     });
 }
@@ -211,12 +213,15 @@ mod tests {
             normal: Vec3::X,
             albedo: Rgb::new(1.0, 0.0, 0.0),
             depth: 1.0,
-            direct: Rgb::new(0.0, 1.0, 0.0),
-            indirect: Rgb::new(0.0, 0.0, 1.0),
             ..FilmPixel::default()
         };
         film.pixels[1] = FilmPixel { normal: Vec3::NEG_Y, depth: 3.0, ..film.pixels[0] };
         let mut p = Vec::new();
+        display(&film, Display::Direct, &mut p);
+        assert_eq!(p, [0, 0, 0], "no path AOVs: black");
+        let direct =
+            PathAovs { direct: Rgb::new(0.0, 1.0, 0.0), indirect: Rgb::new(0.0, 0.0, 1.0), ..PathAovs::default() };
+        film.path_aovs_mut().expect("small").1[0] = direct;
         display(&film, Display::Beauty, &mut p);
         assert_eq!(p, [0xffffff, 0xffffff, 0]);
         display(&film, Display::Albedo, &mut p);

@@ -24,7 +24,7 @@ use super::integrator::{GuideGeometry, IndirectMode};
 use super::wavefront::Request;
 use super::{BAND_ROWS, FilterBuffers, Frame, PathSettings, Tracer, depth_scale, filter_indirect};
 use crate::bands::{self, Hooks};
-use crate::film::{Film, FilmPixel};
+use crate::film::{Film, FilmPixel, PathAovs};
 use crate::fixed;
 use crate::settings::ImageSettings;
 use crate::stats::{BandStats, FrameStats};
@@ -199,9 +199,10 @@ impl PathAccumulator {
         if film.width != self.width || film.height != self.height {
             *film = Film::try_new(self.width, self.height)?;
         }
-        film.path_aovs = true;
         if self.passes == 0 {
-            film.pixels.fill(FilmPixel::default());
+            let (pixels, path) = film.path_aovs_mut()?;
+            pixels.fill(FilmPixel::default());
+            path.fill(PathAovs::default());
             return Ok(Duration::ZERO);
         }
         let mean_indirect = |s: &Sums| if s.guided == 0 { Rgb::ZERO } else { s.indirect / s.guided as f32 };
@@ -224,7 +225,8 @@ impl PathAccumulator {
         };
         let filter_time = start.elapsed();
         let buffers = &self.filter_buffers;
-        film.pixels.par_iter_mut().enumerate().for_each(|(i, p)| {
+        let (pixels, path) = film.path_aovs_mut()?;
+        pixels.par_iter_mut().zip(path).enumerate().for_each(|(i, (p, q))| {
             let s = &self.sums[i];
             let n = s.samples.max(1) as f32;
             let guide = self.guides[i];
@@ -240,11 +242,8 @@ impl PathAccumulator {
                 albedo: self.centre_albedo[i],
                 depth: guide.map_or(f32::INFINITY, |q| q.depth),
                 coverage: s.covered as f32 / n,
-                direct: s.direct / n,
-                indirect,
-                samples: s.samples as f32,
-                variance: Rgb::ZERO,
             };
+            *q = PathAovs { direct: s.direct / n, indirect, samples: s.samples as f32, variance: Rgb::ZERO };
         });
         Ok(filter_time)
     }
