@@ -409,7 +409,6 @@ fn read_whitted(path: &Path, t: &ExrTable, height: u32, raw: bool) -> Result<Whi
                 albedo: Rgb::new(v(6), v(7), v(8)),
                 depth: v(9),
                 coverage: v(10),
-                ..FilmPixel::default()
             }
         })
         .collect();
@@ -779,7 +778,6 @@ mod tests {
             albedo: Rgb::splat(0.25),
             depth: if i.is_multiple_of(2) { f32::INFINITY } else { 3.0 },
             coverage: (i % 2) as f32,
-            ..FilmPixel::default()
         };
         // Samples 1..3 of 4 (raw records, two below each other), then a whole tile.
         for (first, end, raw, tile) in [(1, 3, true, None), (2, 3, true, None), (0, 4, false, Some((2, 3)))] {

@@ -49,10 +49,10 @@ pub struct PathAovs {
     pub variance: Rgb,
 }
 
-/// A named channel and how to read it from a pixel.
-type ChannelReader = (&'static str, fn(&FilmPixel) -> f32);
-/// A named path AOV channel and how to read it.
-type PathChannelReader = (&'static str, fn(&PathAovs) -> f32);
+/// A named channel and how to read it from a per-pixel record.
+type Reader<T> = (&'static str, fn(&T) -> f32);
+type ChannelReader = Reader<FilmPixel>;
+type PathChannelReader = Reader<PathAovs>;
 
 #[derive(Clone, Debug)]
 pub struct Film {
@@ -203,7 +203,7 @@ impl Film {
 
 /// The named planes of `records` (one per pixel), filled in parallel (one pass over the records
 /// per band of rows).
-fn planes_of<T: Sync>(records: &[T], width: u32, height: u32, chans: &[(&'static str, fn(&T) -> f32)]) -> Image {
+fn planes_of<T: Sync>(records: &[T], width: u32, height: u32, chans: &[Reader<T>]) -> Image {
     let n = records.len();
     let mut planes: Vec<Vec<f32>> = chans.iter().map(|_| vec![0.0; n]).collect();
     let rows = (width as usize).max(1) * 16;

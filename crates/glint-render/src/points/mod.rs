@@ -198,7 +198,6 @@ impl PointFrame {
                 albedo: self.albedo[i],
                 depth: self.depth[i],
                 coverage: if hit { 1.0 } else { 0.0 },
-                ..FilmPixel::default()
             };
         });
     }

@@ -452,7 +452,6 @@ fn resolve_tile(
                         albedo: Rgb::ZERO + albedos[tx],
                         depth: 0.0 + depths[tx],
                         coverage: 1.0,
-                        ..FilmPixel::default()
                     }
                 } else {
                     FilmPixel { colour, ..FilmPixel::default() }

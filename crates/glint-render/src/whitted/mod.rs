@@ -314,14 +314,7 @@ impl PixelAccumulator {
         if self.hits == 0 {
             return FilmPixel { colour: self.colour, ..FilmPixel::default() };
         }
-        FilmPixel {
-            colour: self.colour,
-            normal: self.normal,
-            albedo: self.albedo,
-            depth: self.depth,
-            coverage: 1.0,
-            ..FilmPixel::default()
-        }
+        FilmPixel { colour: self.colour, normal: self.normal, albedo: self.albedo, depth: self.depth, coverage: 1.0 }
     }
 
     fn finish(self, inv_samples: f32) -> FilmPixel {
@@ -336,7 +329,6 @@ impl PixelAccumulator {
             albedo: self.albedo * inv_hits,
             depth: self.depth * inv_hits,
             coverage,
-            ..FilmPixel::default()
         }
     }
 }
