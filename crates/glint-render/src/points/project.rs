@@ -6,11 +6,11 @@
 //! the nearest point, ties going to the lowest index: the result does not depend on the order
 //! threads visit points in, and equals the serial projection bit for bit.
 
-use super::prepared::{PreparedPoints, decode_octahedral_direction};
+use super::prepared::{PreparedPoints, StreamPoint, decode_octahedral_direction};
 use super::view::{CloudView, View};
+use glint_accel::lanes::{F8, Isa, LANES, LaneKernel, U8x, dispatch};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
-use wide::{f32x4, i32x4, u32x4};
 
 /// An empty pixel.
 pub const EMPTY: u64 = u64::MAX;
@@ -32,12 +32,25 @@ pub fn unpack(word: u64) -> (f32, u32) {
 /// [`EMPTY`]) as `side × side` pixels centred on its own (`side` = 1: the paper's one pixel per
 /// point; larger: the fixed-size square splats of common point viewers).
 pub fn project(points: &PreparedPoints, clouds: &[CloudView], view: &View, depth: &[AtomicU64], side: u32) {
+    project_with(points, clouds, view, depth, side, false);
+}
+
+/// [`project`], with the SSE build of the one-pixel kernel forced when `baseline` (the test
+/// that both builds give the serial reference's bits).
+pub(super) fn project_with(
+    points: &PreparedPoints,
+    clouds: &[CloudView],
+    view: &View,
+    depth: &[AtomicU64],
+    side: u32,
+    baseline: bool,
+) {
     for cv in clouds {
         let range = &points.stream[cv.start as usize..cv.end as usize];
         range.par_chunks(CHUNK).enumerate().for_each(|(chunk, pts)| {
             let base = cv.start + (chunk * CHUNK) as u32;
             if side == 1 {
-                project_chunk(pts, base, cv, view, depth);
+                dispatch(Chunk { pts, base, cv, view, depth }, baseline);
             } else {
                 project_chunk_squares(pts, base, cv, view, depth, side);
             }
@@ -81,100 +94,86 @@ fn depth_min(slot: &AtomicU64, word: u64) {
 /// computed without branches (clip and cull become a sentinel pixel), then scattered.
 const BLOCK: usize = 128;
 
-fn project_chunk(pts: &[super::prepared::StreamPoint], base: u32, cv: &CloudView, view: &View, depth: &[AtomicU64]) {
+/// One rayon task's points, projected one pixel each.
+struct Chunk<'a> {
+    pts: &'a [StreamPoint],
+    base: u32,
+    cv: &'a CloudView,
+    view: &'a View,
+    depth: &'a [AtomicU64],
+}
+
+impl LaneKernel for Chunk<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run<I: Isa>(self) {
+        project_chunk::<I>(self);
+    }
+}
+
+/// The one-pixel projection of a chunk, eight points at a time in `glint_accel::lanes` (one
+/// AVX2 register, or two SSE ones where the CPU has no AVX2: `dispatch` chooses at run time),
+/// with exactly [`pixel_of`]'s operations in its order (no fused multiply-add), so every
+/// lane's pixel and depth equal the scalar test's bit for bit in either build.
+#[inline(always)]
+fn project_chunk<I: Isa>(Chunk { pts, base, cv, view, depth }: Chunk<'_>) {
     let m = cv.camera_from_object;
-    let (r0, r1, r2, t) = (m.matrix3.row(0), m.matrix3.row(1), m.matrix3.row(2), m.translation);
-    let lanes = Lanes {
-        r: [r0, r1, r2].map(|r| [f32x4::splat(r.x), f32x4::splat(r.y), f32x4::splat(r.z)]),
-        t: [f32x4::splat(t.x), f32x4::splat(t.y), f32x4::splat(t.z)],
-        eye: [f32x4::splat(cv.eye_object.x), f32x4::splat(cv.eye_object.y), f32x4::splat(cv.eye_object.z)],
-        cull: f32x4::splat(if cv.cull { 1.0 } else { 0.0 }),
-        focal: f32x4::splat(view.focal),
-        centre: [f32x4::splat(view.centre.x), f32x4::splat(view.centre.y)],
-        size: [f32x4::splat(view.width_f), f32x4::splat(view.height_f)],
-        near: f32x4::splat(view.near),
-        width: i32x4::splat(view.width as i32),
-    };
+    let rows = [m.matrix3.row(0), m.matrix3.row(1), m.matrix3.row(2)];
+    let r = rows.map(|r| [F8::<I>::splat(r.x), F8::splat(r.y), F8::splat(r.z)]);
+    let t = [F8::<I>::splat(m.translation.x), F8::splat(m.translation.y), F8::splat(m.translation.z)];
+    let eye = [F8::<I>::splat(cv.eye_object.x), F8::splat(cv.eye_object.y), F8::splat(cv.eye_object.z)];
+    let cull = F8::<I>::splat(if cv.cull { 1.0 } else { 0.0 });
+    let (focal, near) = (F8::<I>::splat(view.focal), F8::<I>::splat(view.near));
+    let centre = [F8::<I>::splat(view.centre.x), F8::splat(view.centre.y)];
+    let size = [F8::<I>::splat(view.width_f), F8::splat(view.height_f)];
+    let zero = F8::<I>::zero();
+    const SCALE: f32 = 2.0 / 65534.0;
+    let (scale, offset) = (F8::<I>::splat(SCALE), F8::<I>::splat(1.0 + SCALE));
+    let width = view.width as usize;
     // Lanes past the end of a block hold NaN positions, which no clip test passes.
     let (mut px, mut py, mut pz, mut pn) = ([f32::NAN; BLOCK], [f32::NAN; BLOCK], [f32::NAN; BLOCK], [0u32; BLOCK]);
-    let mut pixel = [0u32; BLOCK];
-    let mut depth_bits = [0u32; BLOCK];
+    let (mut sx_out, mut sy_out, mut depth_bits) = ([u32::MAX; BLOCK], [0u32; BLOCK], [0u32; BLOCK]);
     for (b, block) in pts.chunks(BLOCK).enumerate() {
         let first = base + (b * BLOCK) as u32;
         let n = block.len();
         for (k, p) in block.iter().enumerate() {
             (px[k], py[k], pz[k], pn[k]) = (p.position.x, p.position.y, p.position.z, p.normal);
         }
-        for k in n..n.next_multiple_of(4) {
+        for k in n..n.next_multiple_of(LANES) {
             (px[k], py[k], pz[k]) = (f32::NAN, f32::NAN, f32::NAN);
         }
-        for g in (0..n).step_by(4) {
-            let lane = |a: &[f32; BLOCK]| f32x4::new([a[g], a[g + 1], a[g + 2], a[g + 3]]);
-            let code = u32x4::new([pn[g], pn[g + 1], pn[g + 2], pn[g + 3]]);
-            let (p, d) = lanes.project([lane(&px), lane(&py), lane(&pz)], code);
-            pixel[g..g + 4].copy_from_slice(&p);
-            depth_bits[g..g + 4].copy_from_slice(&d);
+        for g in (0..n).step_by(LANES) {
+            let lane = |a: &[f32; BLOCK]| F8::<I>::from_array(a[g..g + LANES].try_into().unwrap_or([f32::NAN; LANES]));
+            let (x, y, z) = (lane(&px), lane(&py), lane(&pz));
+            let row = |r: &[F8<I>; 3], t: F8<I>| r[0] * x + r[1] * y + r[2] * z + t;
+            let (cx, cy, cz) = (row(&r[0], t[0]), row(&r[1], t[1]), row(&r[2], t[2]));
+            let inv = focal / cz;
+            let sx = cx * inv + centre[0];
+            let sy = cy * inv + centre[1];
+            let inside = cz.gt(near) & sx.ge(zero) & sy.ge(zero) & sx.lt(size[0]) & sy.lt(size[1]);
+            // The octahedral normal, decoded as `decode_octahedral_unchecked` does.
+            let code = U8x::<I>::from_array(pn[g..g + LANES].try_into().unwrap_or([0; LANES]));
+            let nx = code.and(0xffff).to_f32() * scale - offset;
+            let ny = code.shift_right(16).to_f32() * scale - offset;
+            let nz = F8::one() - nx.abs() - ny.abs();
+            let fold = (-nz).max(zero);
+            let (nx, ny) = (nx - fold.copysign(nx), ny - fold.copysign(ny));
+            let facing = nx * (x - eye[0]) + ny * (y - eye[1]) + nz * (z - eye[2]);
+            let back = (facing * cull).gt(zero);
+            let keep = inside.and_not(back);
+            let sx = U8x::select(keep, sx.trunc_to_u32(), U8x::splat(u32::MAX));
+            sx_out[g..g + LANES].copy_from_slice(&sx.to_array());
+            sy_out[g..g + LANES].copy_from_slice(&sy.trunc_to_u32().to_array());
+            depth_bits[g..g + LANES].copy_from_slice(&cz.to_bits().to_array());
         }
         for k in 0..n {
-            if pixel[k] != u32::MAX {
-                depth_min(&depth[pixel[k] as usize], (u64::from(depth_bits[k]) << 32) | u64::from(first + k as u32));
+            if sx_out[k] != u32::MAX {
+                let pixel = sy_out[k] as usize * width + sx_out[k] as usize;
+                depth_min(&depth[pixel], (u64::from(depth_bits[k]) << 32) | u64::from(first + k as u32));
             }
         }
     }
-}
-
-/// One cloud's view in SIMD lanes: four points projected at once (SSE2, part of every x86-64),
-/// with exactly the scalar code's operations in the same order, so every lane's pixel and depth
-/// equal [`pixel_of`]'s bit for bit.
-struct Lanes {
-    /// Rows of the camera-from-object rotation, each coefficient splatted.
-    r: [[f32x4; 3]; 3],
-    t: [f32x4; 3],
-    eye: [f32x4; 3],
-    cull: f32x4,
-    focal: f32x4,
-    centre: [f32x4; 2],
-    size: [f32x4; 2],
-    near: f32x4,
-    width: i32x4,
-}
-
-impl Lanes {
-    /// Pixel index (`u32::MAX` when clipped or culled) and depth bits of four points.
-    #[inline(always)]
-    fn project(&self, [x, y, z]: [f32x4; 3], code: u32x4) -> ([u32; 4], [u32; 4]) {
-        let row = |r: &[f32x4; 3], t: f32x4| r[0] * x + r[1] * y + r[2] * z + t;
-        let (cx, cy, cz) = (row(&self.r[0], self.t[0]), row(&self.r[1], self.t[1]), row(&self.r[2], self.t[2]));
-        let inv = self.focal / cz;
-        let sx = cx * inv + self.centre[0];
-        let sy = cy * inv + self.centre[1];
-        let zero = f32x4::ZERO;
-        let inside = cz.simd_gt(self.near)
-            & sx.simd_ge(zero)
-            & sy.simd_ge(zero)
-            & sx.simd_lt(self.size[0])
-            & sy.simd_lt(self.size[1]);
-        // The octahedral normal, decoded as `decode_octahedral_unchecked` does.
-        const SCALE: f32 = 2.0 / 65534.0;
-        let unpack = |v: u32x4| f32x4::from_i32x4(i32x4::from(v.to_array().map(|c| c as i32)));
-        let nx = unpack(code & u32x4::splat(0xffff)) * f32x4::splat(SCALE) - f32x4::splat(1.0 + SCALE);
-        let ny = unpack(code >> 16) * f32x4::splat(SCALE) - f32x4::splat(1.0 + SCALE);
-        let nz = f32x4::ONE - nx.abs() - ny.abs();
-        let fold = (-nz).max(zero);
-        let (nx, ny) = (nx - fold.copysign(nx), ny - fold.copysign(ny));
-        let facing = nx * (x - self.eye[0]) + ny * (y - self.eye[1]) + nz * (z - self.eye[2]);
-        let back = (facing * self.cull).simd_gt(zero);
-        let keep: i32x4 = bytemuck_cast(inside & !back);
-        let index = sy.fast_trunc_int() * self.width + sx.fast_trunc_int();
-        let pixel = keep.select(index, i32x4::splat(-1));
-        (pixel.to_array().map(|p| p as u32), cz.to_bits().to_array())
-    }
-}
-
-/// A lane mask of floats as the same bits in integer lanes.
-#[inline(always)]
-fn bytemuck_cast(m: f32x4) -> i32x4 {
-    i32x4::from(m.to_bits().to_array().map(|b| b as i32))
 }
 
 fn project_chunk_squares(

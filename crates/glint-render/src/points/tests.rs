@@ -349,10 +349,12 @@ fn projection_equals_a_serial_reference() {
         let points = PreparedPoints::new(&scene).unwrap();
         let view = View::new(&scene.camera, 97, 61);
         let clouds = view::cloud_views(&points, &view, true);
-        for side in [1, 3] {
+        // One pixel per point in both builds of the lane kernel (AVX2 where the CPU has it,
+        // and the SSE baseline), and the squares.
+        for (side, baseline) in [(1, false), (1, true), (3, false)] {
             let depth: Vec<std::sync::atomic::AtomicU64> =
                 (0..97 * 61).map(|_| std::sync::atomic::AtomicU64::new(EMPTY)).collect();
-            project::project(&points, &clouds, &view, &depth, side);
+            project::project_with(&points, &clouds, &view, &depth, side, baseline);
             // Serial: every point in order, a plain comparison.
             let mut reference = vec![EMPTY; 97 * 61];
             let mut culled = 0;
@@ -370,7 +372,7 @@ fn projection_equals_a_serial_reference() {
                 }
             }
             let got: Vec<u64> = depth.into_iter().map(|d| d.into_inner()).collect();
-            assert_eq!(got, reference, "oriented {oriented}, side {side}");
+            assert_eq!(got, reference, "oriented {oriented}, side {side}, baseline {baseline}");
             // Culling removes about half of the oriented points (random normals), none otherwise.
             let frac = culled as f64 / points.len() as f64;
             if oriented {
