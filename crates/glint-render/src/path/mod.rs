@@ -341,8 +341,8 @@ impl<'a> Tracer<'a> {
         match kernel {
             PathKernel::Wavefront => Tracer::Wavefront {
                 wavefront: Box::new(Wavefront::new(world, frame)),
-                requests: Vec::new(),
-                out: Vec::new(),
+                requests: Vec::with_capacity(RUN_SAMPLES),
+                out: Vec::with_capacity(RUN_SAMPLES),
             },
             PathKernel::Recursive => {
                 Tracer::Recursive { frame, it: Integrator::new(world, &frame.lights, frame.params) }
