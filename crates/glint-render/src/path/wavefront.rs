@@ -123,18 +123,13 @@ enum Dest {
     Tail { tail: u32, beta: Rgb },
 }
 
-/// The wavefront tracer of one worker: its queues are kept between the bands it traces.
+/// The wavefront tracer of one band: its queues ([`Queues`]) come from its worker thread and go
+/// back to it when the tracer is dropped.
 pub(super) struct Wavefront<'a> {
     world: &'a World,
     frame: &'a Frame,
     pub counts: RayCounts,
-    paths: Vec<Path>,
-    next: Vec<Path>,
-    hits: Vec<Option<SurfaceHit>>,
-    tails: Vec<Tail>,
-    ended: Vec<u32>,
-    shadows: Vec<Shadow>,
-    order: Vec<u32>,
+    q: Queues,
 }
 
 /// A worker thread's queues between the wavefront tracers it makes (one per band): a fresh
@@ -158,71 +153,70 @@ thread_local! {
 
 impl<'a> Wavefront<'a> {
     pub(super) fn new(world: &'a World, frame: &'a Frame) -> Self {
-        let Queues { paths, next, hits, tails, ended, shadows, order } =
-            QUEUES.try_with(|q| q.take()).unwrap_or_default();
-        Self { world, frame, counts: RayCounts::default(), paths, next, hits, tails, ended, shadows, order }
+        let q = QUEUES.try_with(|q| q.take()).unwrap_or_default();
+        Self { world, frame, counts: RayCounts::default(), q }
     }
 
     /// Trace the camera samples `requests`; `out[i]` is request `i`'s image position and
     /// sample.
     pub(super) fn run(&mut self, requests: &[Request], out: &mut Vec<(Vec2, CameraSample)>) {
         out.clear();
-        self.paths.clear();
-        self.tails.clear();
+        self.q.paths.clear();
+        self.q.tails.clear();
         for (slot, r) in requests.iter().enumerate() {
             let (pos, ray, stream) = self.frame.camera_ray(r.x, r.y, r.index, r.centre);
             let cos = ray.dir.dot(self.frame.forward);
             let cone = self.frame.centre_cone * cos * cos.sqrt();
             out.push((pos, CameraSample::default()));
             let leg = CameraLeg { chain: 0, throughput: Rgb::ONE, depth: 0.0, cone, mode: r.mode };
-            self.paths.push(Path { slot: slot as u32, ray, stream, leg: Leg::Camera(leg) });
+            self.q.paths.push(Path { slot: slot as u32, ray, stream, leg: Leg::Camera(leg) });
         }
         // Camera rays come in pixel order, already coherent: traced as they are.
         let mut binned = true;
-        while !self.paths.is_empty() {
+        while !self.q.paths.is_empty() {
             if !binned {
-                bin_paths(&self.paths, &mut self.next);
-                std::mem::swap(&mut self.paths, &mut self.next);
+                bin_paths(&self.q.paths, &mut self.q.next);
+                std::mem::swap(&mut self.q.paths, &mut self.q.next);
             }
             binned = false;
             self.trace();
-            self.next.clear();
-            self.shadows.clear();
-            self.ended.clear();
-            for i in 0..self.paths.len() {
-                let (path, hit) = (self.paths[i], self.hits[i]);
+            self.q.next.clear();
+            self.q.shadows.clear();
+            self.q.ended.clear();
+            for i in 0..self.q.paths.len() {
+                let (path, hit) = (self.q.paths[i], self.q.hits[i]);
                 match path.leg {
                     Leg::Camera(leg) => self.shade_camera(path, leg, hit, out),
                     Leg::Tail(leg) => self.shade_tail(path, leg, hit),
                 }
             }
             self.trace_shadows(out);
-            for &t in &self.ended {
-                let tail = &self.tails[t as usize];
+            for &t in &self.q.ended {
+                let tail = &self.q.tails[t as usize];
                 let li = if tail.clamp { clamp_radiance(tail.li, self.frame.params.clamp_indirect) } else { tail.li };
                 let s = &mut out[tail.slot as usize].1;
                 s.rest += tail.to_rest * li;
                 s.indirect += li * tail.to_indirect;
             }
-            std::mem::swap(&mut self.paths, &mut self.next);
+            std::mem::swap(&mut self.q.paths, &mut self.q.next);
         }
     }
 
     /// Closest hits of every live path, eight rays per packet query.
     fn trace(&mut self) {
-        let n = self.paths.len();
-        self.hits.clear();
-        self.hits.resize(n, None);
+        let n = self.q.paths.len();
+        self.q.hits.clear();
+        self.q.hits.resize(n, None);
         let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); 8];
         let mut found = [None; 8];
         for start in (0..n).step_by(8) {
             let len = (n - start).min(8);
             for (j, r) in rays.iter_mut().enumerate() {
                 // A short last packet repeats its last ray (the same answer, ignored).
-                *r = self.paths[start + j.min(len - 1)].ray;
+                *r = self.q.paths[start + j.min(len - 1)].ray;
             }
             self.world.intersect8(&rays, &mut found);
-            self.hits[start..start + len].copy_from_slice(&found[..len]);
+            self.q.hits[start..start + len].copy_from_slice(&found[..len]);
         }
     }
 
@@ -269,7 +263,7 @@ impl<'a> Wavefront<'a> {
                 if leg.chain < self.frame.params.max_chain {
                     leg.chain += 1;
                     let ray = hit.spawn_ray(s.wi);
-                    self.next.push(Path { slot, ray, stream, leg: Leg::Camera(leg) });
+                    self.q.next.push(Path { slot, ray, stream, leg: Leg::Camera(leg) });
                 }
                 return;
             }
@@ -344,10 +338,10 @@ impl<'a> Wavefront<'a> {
     }
 
     fn start_tail(&mut self, tail: Tail, ray: Ray, stream: SampleStream, bounce: u32, arrival: Arrival) {
-        let id = self.tails.len() as u32;
-        self.tails.push(tail);
+        let id = self.q.tails.len() as u32;
+        self.q.tails.push(tail);
         let leg = TailLeg { tail: id, beta: Rgb::ONE, bounce, arrival };
-        self.next.push(Path { slot: tail.slot, ray, stream, leg: Leg::Tail(leg) });
+        self.q.next.push(Path { slot: tail.slot, ray, stream, leg: Leg::Tail(leg) });
     }
 
     /// One vertex behind a guide vertex: the recursive tracer's `trace_path` loop body.
@@ -358,15 +352,15 @@ impl<'a> Wavefront<'a> {
         let Some(hit) = hit else {
             let weight = leg.arrival.emission_weight(lights.pdf_sky(self.world, path.ray.dir));
             if weight > 0.0 {
-                self.tails[leg.tail as usize].li += leg.beta * self.world.sky().radiance(path.ray.dir) * weight;
+                self.q.tails[leg.tail as usize].li += leg.beta * self.world.sky().radiance(path.ray.dir) * weight;
             }
-            self.ended.push(leg.tail);
+            self.q.ended.push(leg.tail);
             return;
         };
         let (bsdf, emission) = bsdf_at(self.world, &hit, path.ray.dir);
         if emission.max_element() > 0.0 {
             let weight = leg.arrival.emission_weight(lights.pdf_surface(leg.arrival.from, path.ray.dir, &hit));
-            self.tails[leg.tail as usize].li += leg.beta * emission * weight;
+            self.q.tails[leg.tail as usize].li += leg.beta * emission * weight;
         }
         let mut stream = path.stream;
         if bsdf.has_non_delta() {
@@ -381,13 +375,13 @@ impl<'a> Wavefront<'a> {
             );
         }
         if leg.bounce >= params.max_bounces {
-            self.ended.push(leg.tail);
+            self.q.ended.push(leg.tail);
             return;
         }
         let u_lobe = stream.next_1d();
         let u = stream.next_2d();
         let Some(s) = bsdf.sample(u_lobe, u) else {
-            self.ended.push(leg.tail);
+            self.q.ended.push(leg.tail);
             return;
         };
         leg.beta *= s.weight;
@@ -395,13 +389,13 @@ impl<'a> Wavefront<'a> {
         if leg.bounce > params.rr_start {
             let q = leg.beta.max_element().min(0.95);
             if stream.next_1d() >= q || q.is_nan() {
-                self.ended.push(leg.tail);
+                self.q.ended.push(leg.tail);
                 return;
             }
             leg.beta /= q;
         }
         leg.arrival = Arrival { pdf: s.pdf, delta: s.delta, after_guide: false, from: hit.position };
-        self.next.push(Path { slot: path.slot, ray: hit.spawn_ray(s.wi), stream, leg: Leg::Tail(leg) });
+        self.q.next.push(Path { slot: path.slot, ray: hit.spawn_ray(s.wi), stream, leg: Leg::Tail(leg) });
     }
 
     /// Next-event estimation at a vertex: its shadow rays queued with what each adds.
@@ -415,7 +409,7 @@ impl<'a> Wavefront<'a> {
     ) {
         let frame = self.frame;
         let filter_direct = frame.params.filter_area_direct;
-        let shadows = &mut self.shadows;
+        let shadows = &mut self.q.shadows;
         light_samples(&frame.lights, self.world, hit, bsdf, stream, mis, &mut self.counts, |ray, c, diffuse| {
             shadows.push(match dest {
                 Dest::Guide { slot, throughput, albedo, trace } => {
@@ -435,31 +429,31 @@ impl<'a> Wavefront<'a> {
     /// The round's shadow rays, binned by octant, as any-hit packets; the unblocked ones add
     /// their light.
     fn trace_shadows(&mut self, out: &mut [(Vec2, CameraSample)]) {
-        let n = self.shadows.len();
+        let n = self.q.shadows.len();
         if n == 0 {
             return;
         }
-        octant_order(self.shadows.iter().map(|s| s.ray.dir), &mut self.order);
+        octant_order(self.q.shadows.iter().map(|s| s.ray.dir), &mut self.q.order);
         let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); 8];
         let mut blocked = [false; 8];
         for start in (0..n).step_by(8) {
             let len = (n - start).min(8);
             for (j, r) in rays.iter_mut().enumerate() {
-                *r = self.shadows[self.order[start + j.min(len - 1)] as usize].ray;
+                *r = self.q.shadows[self.q.order[start + j.min(len - 1)] as usize].ray;
             }
             self.world.occluded8(&rays, &mut blocked);
             for (j, &b) in blocked[..len].iter().enumerate() {
                 if b {
                     continue;
                 }
-                let s = &self.shadows[self.order[start + j] as usize];
+                let s = &self.q.shadows[self.q.order[start + j] as usize];
                 if s.tail == NO_TAIL {
                     let sample = &mut out[s.slot as usize].1;
                     sample.rest += s.rest;
                     sample.direct += s.direct;
                     sample.indirect += s.indirect;
                 } else {
-                    self.tails[s.tail as usize].li += s.rest;
+                    self.q.tails[s.tail as usize].li += s.rest;
                 }
             }
         }
@@ -475,15 +469,7 @@ fn octant(d: Vec3) -> usize {
 impl Drop for Wavefront<'_> {
     /// The queues go back to the thread for its next tracer.
     fn drop(&mut self) {
-        let queues = Queues {
-            paths: std::mem::take(&mut self.paths),
-            next: std::mem::take(&mut self.next),
-            hits: std::mem::take(&mut self.hits),
-            tails: std::mem::take(&mut self.tails),
-            ended: std::mem::take(&mut self.ended),
-            shadows: std::mem::take(&mut self.shadows),
-            order: std::mem::take(&mut self.order),
-        };
+        let queues = std::mem::take(&mut self.q);
         // During the thread's teardown there is nowhere to keep them: they are freed.
         let _ = QUEUES.try_with(|q| q.replace(queues));
     }
