@@ -113,11 +113,25 @@ fn the_window_shows_the_scene() {
             std::thread::sleep(Duration::from_millis(100));
         }
     };
-    let mut window = String::new();
-    wait_for("the window", &mut || {
-        window = xdotool(&["search", "--name", "^glint"]).lines().next().unwrap_or("").to_string();
-        !window.is_empty()
-    });
+    // The window, or why there is none: a viewer that exited says so (its status and stderr),
+    // one that hangs is killed rather than left behind.
+    let start = Instant::now();
+    let window = loop {
+        let found = xdotool(&["search", "--name", "^glint"]).lines().next().unwrap_or("").to_string();
+        if !found.is_empty() {
+            break found;
+        }
+        if let Some(status) = child.try_wait().unwrap() {
+            let mut err = String::new();
+            child.stderr.take().map(|mut e| std::io::Read::read_to_string(&mut e, &mut err));
+            panic!("the viewer exited ({status}) before its window showed: {err}");
+        }
+        if start.elapsed() > Duration::from_secs(60) {
+            let _ = child.kill();
+            panic!("timed out waiting for the window (the viewer was still running)");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
     xdotool(&["windowfocus", &window]);
     xdotool(&["key", "--window", &window, "2"]);
     std::thread::sleep(Duration::from_millis(500));
