@@ -8,8 +8,8 @@
 //! `rayon::join`, binning of big nodes is split over chunks.
 //!
 //! Deterministic whatever the thread count: every reduction is exact (min/max of boxes, integer
-//! counts), partitions run sequentially, and each subtree of `n` primitives writes into a fixed
-//! slot range of `2n − 1` nodes (pre-order with gaps), compacted afterwards in index order.
+//! counts), partitions run sequentially, and nodes are written in pre-order (a subtree built on
+//! another thread goes into a vector of its own, appended in its place with its indices moved).
 //!
 //! Degenerate inputs never recurse forever: when all centroids coincide, or past a depth limit,
 //! the node is split in the middle by count (after ordering by centroid when they differ).
@@ -18,7 +18,8 @@
 //! supply them) and drops boxes that are empty or not finite — those primitives are never hit.
 
 use crate::bvh2::{Bvh2, Bvh2Node};
-use glint_core::{Bounds3, Vec3, Vec3A};
+use glint_core::glam::BVec3A;
+use glint_core::{Bounds3, Vec3, Vec3A, Vec4};
 use rayon::prelude::*;
 
 /// Builder settings.
@@ -77,35 +78,46 @@ const SAH_DEPTH_LIMIT: u32 = 64;
 const PARALLEL_BINNING: usize = 1 << 16;
 const BIN_CHUNK: usize = 1 << 14;
 
-/// One primitive as the builder sees it: its box and its index in the caller's input.
+/// One primitive as the builder sees it: its box and its index in the caller's input. Each
+/// corner is one aligned 16-byte vector (the id rides in the min corner's fourth lane, as bits),
+/// so the hot loops load a corner with one instruction and use it as a `Vec3A` as it is. The
+/// fourth lanes go through the same arithmetic, so the id's bits are flipped by [`ID_FLIP`] to
+/// make a normal float of any id below 127·2²³ (over a billion; ids as they are would be
+/// subnormal, which some CPUs compute with slow microcode).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
 pub(crate) struct PrimRef {
-    min: Vec3,
-    id: u32,
-    max: Vec3,
-    _pad: u32,
+    lo: Vec4,
+    hi: Vec4,
 }
 const _: () = assert!(size_of::<PrimRef>() == 32);
 
+/// Sets the exponent's top bit of an id's bits: ids below 127·2²³ become normal floats ≥ 2.
+const ID_FLIP: u32 = 0x4000_0000;
+
 impl PrimRef {
+    fn new(b: &Bounds3, id: u32) -> Self {
+        Self { lo: b.min.extend(f32::from_bits(id ^ ID_FLIP)), hi: b.max.extend(0.0) }
+    }
+
+    #[inline(always)]
+    fn id(&self) -> u32 {
+        self.lo.w.to_bits() ^ ID_FLIP
+    }
+
+    /// The box's corners (the fourth lane is ignored by every `Vec3A` operation used here).
+    #[inline(always)]
+    fn corners(&self) -> (Vec3A, Vec3A) {
+        (Vec3A::from_vec4(self.lo), Vec3A::from_vec4(self.hi))
+    }
+
     /// Twice the centroid (saves a multiply; the bins are scaled accordingly).
-    #[inline]
+    #[inline(always)]
     fn centroid2(&self) -> Vec3A {
-        Vec3A::from(self.min) + Vec3A::from(self.max)
+        let (lo, hi) = self.corners();
+        lo + hi
     }
 }
-
-/// A slot of the gapped pre-order node array during the build.
-#[derive(Clone, Copy, Debug)]
-struct Slot {
-    bounds: Bounds3,
-    /// Leaf: first primitive; inner: slot index of the right child (left is the next slot).
-    first: u32,
-    /// Leaf: primitive count (≥ 1); inner: 0; unused slot: `u32::MAX`.
-    count: u32,
-}
-const UNUSED: u32 = u32::MAX;
 
 #[derive(Clone, Copy)]
 struct Settings {
@@ -172,20 +184,53 @@ impl BinMap {
         let idx = |x: f32| ((x.to_bits() & 0x7f_ffff).wrapping_sub(0x40_0000) as usize) % MAX_BINS;
         [idx(r.x), idx(r.y), idx(r.z)]
     }
+
+    /// `bins_of(c2)[axis]`, the same arithmetic on one axis.
+    #[inline]
+    fn bin_of(&self, c2: Vec3A, axis: usize) -> usize {
+        let b = ((c2[axis] - self.base[axis]) * self.scale[axis]).max(0.0).min(self.last);
+        let r = (b - 0.5) + 12_582_912.0;
+        ((r.to_bits() & 0x7f_ffff).wrapping_sub(0x40_0000) as usize) % MAX_BINS
+    }
 }
+
+impl Bins {
+    #[inline(always)]
+    fn add(&mut self, r: &PrimRef, map: &BinMap) {
+        let (lo, hi) = r.corners();
+        let b = map.bins_of(lo + hi);
+        for (a, &i) in b.iter().enumerate() {
+            self.min[a][i] = self.min[a][i].min(lo);
+            self.max[a][i] = self.max[a][i].max(hi);
+            self.count[a][i] += 1;
+        }
+    }
+}
+
+/// Below this many primitives one set of bins is used, above it two.
+const TWO_BIN_SETS: usize = 64;
 
 fn bin_slice(refs: &[PrimRef], map: &BinMap) -> Bins {
     let mut bins = Bins::new();
-    for r in refs {
-        let (lo, hi) = (Vec3A::from(r.min), Vec3A::from(r.max));
-        let b = map.bins_of(lo + hi);
-        for (a, &i) in b.iter().enumerate() {
-            bins.min[a][i] = bins.min[a][i].min(lo);
-            bins.max[a][i] = bins.max[a][i].max(hi);
-            bins.count[a][i] += 1;
+    if refs.len() < TWO_BIN_SETS {
+        for r in refs {
+            bins.add(r, map);
         }
+        return bins;
     }
-    bins
+    // Neighbouring primitives of a mesh mostly fall in the same bins, and each update of a bin
+    // waits for the previous one's store: alternating between two sets of bins halves those
+    // chains. Merging is exact (minima, maxima, counts), so the bins are the same.
+    let mut odd = Bins::new();
+    let (pairs, rest) = refs.as_chunks::<2>();
+    for [a, b] in pairs {
+        bins.add(a, map);
+        odd.add(b, map);
+    }
+    for r in rest {
+        bins.add(r, map);
+    }
+    bins.merge(&odd)
 }
 
 fn area(min: Vec3A, max: Vec3A) -> f32 {
@@ -198,7 +243,7 @@ fn bounds_of(refs: &[PrimRef]) -> (Bounds3, Bounds3) {
     let mut b = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
     let mut c = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
     for r in refs {
-        let (lo, hi) = (Vec3A::from(r.min), Vec3A::from(r.max));
+        let (lo, hi) = r.corners();
         b = (b.0.min(lo), b.1.max(hi));
         let c2 = (lo + hi) * 0.5;
         c = (c.0.min(c2), c.1.max(c2));
@@ -265,33 +310,44 @@ fn best_split(bins: &Bins, n_bins: usize) -> Option<Split> {
 }
 
 /// In-place partition; returns the left count and the centroid bounds of both sides.
+///
+/// Branch-free (Lomuto with an unconditional swap): `refs[..j]` holds the left primitives and
+/// `refs[j..i]` the right ones; the element at `i` is swapped to `j` and `j` advances when it
+/// goes left. A right element swaps with itself or with another right one, which keeps the
+/// invariant. Which side a primitive goes to is as unpredictable as the mesh, so a branch
+/// per primitive mispredicted about half the time.
 fn partition(refs: &mut [PrimRef], map: &BinMap, split: &Split) -> (usize, Bounds3, Bounds3) {
-    let (mut i, mut j) = (0, refs.len());
+    let mut j = 0;
+    let (axis, pos) = (split.axis, split.pos);
     let mut lc = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
     let mut rc = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-    while i < j {
+    for i in 0..refs.len() {
         let c2 = refs[i].centroid2();
-        if map.bins_of(c2)[split.axis] < split.pos {
-            lc = (lc.0.min(c2), lc.1.max(c2));
-            i += 1;
-        } else {
-            rc = (rc.0.min(c2), rc.1.max(c2));
-            j -= 1;
-            refs.swap(i, j);
-        }
+        let left = map.bin_of(c2, axis) < pos;
+        // Each side's centroid box grows by c2 or by an empty box (blends, not branches).
+        let m = BVec3A::splat(left);
+        let (inf, ninf) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+        lc = (lc.0.min(Vec3A::select(m, c2, inf)), lc.1.max(Vec3A::select(m, c2, ninf)));
+        rc = (rc.0.min(Vec3A::select(m, inf, c2)), rc.1.max(Vec3A::select(m, ninf, c2)));
+        refs.swap(i, j);
+        j += usize::from(left);
     }
     let half = |c: (Vec3A, Vec3A)| Bounds3::new((c.0 * 0.5).into(), (c.1 * 0.5).into());
-    (i, half(lc), half(rc))
+    (j, half(lc), half(rc))
 }
 
-/// Builds the subtree of `refs` into `slots` (exactly `2 refs.len() − 1` slots, the first is the
-/// subtree root). `base` is the global index of `slots[0]`, `first` that of `refs[0]`.
-/// Returns the subtree depth.
+/// Appends the subtree of `refs` to `out` in pre-order (a node, its left subtree, its right
+/// subtree), inner nodes naming their right child by its index in `out` as it will be when
+/// `out` starts at `base`. `first` is the global index of `refs[0]`. Returns the subtree depth.
+///
+/// Above the parallel threshold the right subtree is built on another thread into a vector of
+/// its own and appended when both are done, its indices moved by where it lands: the nodes
+/// come out in the same order whatever the thread count.
 #[allow(clippy::too_many_arguments)]
 fn build_rec(
     s: &Settings,
     refs: &mut [PrimRef],
-    slots: &mut [Slot],
+    out: &mut Vec<Bvh2Node>,
     base: u32,
     first: u32,
     bounds: Bounds3,
@@ -299,24 +355,28 @@ fn build_rec(
     depth: u32,
 ) -> u32 {
     let n = refs.len();
-    let leaf = |slots: &mut [Slot]| {
-        slots[0] = Slot { bounds, first, count: n as u32 };
+    let leaf = |out: &mut Vec<Bvh2Node>| {
+        out.push(Bvh2Node { bounds, first, count: n as u32 });
         1
     };
-    if n == 1 {
-        return leaf(slots);
+    // A leaf of one block costs `ci`, any split at least `ct` more than nothing: when a
+    // visit costs no less than a block test, at most a block's worth of primitives is a leaf
+    // whatever the bins would say (the bins and their sweep were most of a small node's cost).
+    if n == 1 || (n <= s.max_leaf && n as u32 <= BLOCK && s.ct >= s.ci) {
+        return leaf(out);
     }
     let centroids_equal = cbounds.min == cbounds.max;
     let mut split = None;
     let mut map = None;
     if !centroids_equal && depth < SAH_DEPTH_LIMIT {
-        let m = BinMap::new(&cbounds, s.bins);
+        let n_bins = s.bins;
+        let m = BinMap::new(&cbounds, n_bins);
         let bins = if n > PARALLEL_BINNING {
             refs.par_chunks(BIN_CHUNK).map(|c| bin_slice(c, &m)).reduce(Bins::new, |a, b| a.merge(&b))
         } else {
             bin_slice(refs, &m)
         };
-        split = best_split(&bins, s.bins);
+        split = best_split(&bins, n_bins);
         map = Some(m);
     }
     let (nl, lb, lcb, rb, rcb) = match (split, map) {
@@ -325,21 +385,21 @@ fn build_rec(
             let split_cost = s.ct + s.ci * sp.cost / a.max(f32::MIN_POSITIVE);
             let leaf_cost = s.ci * blocks(n as u32);
             if n <= s.max_leaf && (leaf_cost <= split_cost || a == 0.0) {
-                return leaf(slots);
+                return leaf(out);
             }
             let (nl, lcb, rcb) = partition(refs, &m, &sp);
             (nl, sp.left, lcb, sp.right, rcb)
         }
         _ => {
             if n <= s.max_leaf {
-                return leaf(slots);
+                return leaf(out);
             }
             // Split by count: in the middle of the centroid order along the largest axis.
             let mid = n / 2;
             if !centroids_equal {
                 let axis = cbounds.largest_axis();
                 refs.select_nth_unstable_by(mid, |a, b| {
-                    a.centroid2()[axis].total_cmp(&b.centroid2()[axis]).then(a.id.cmp(&b.id))
+                    a.centroid2()[axis].total_cmp(&b.centroid2()[axis]).then(a.id().cmp(&b.id()))
                 });
             }
             let (lb, lcb) = bounds_of(&refs[..mid]);
@@ -347,25 +407,31 @@ fn build_rec(
             (mid, lb, lcb, rb, rcb)
         }
     };
-    let nr = n - nl;
-    let right_slot = 2 * nl; // relative to slots[0]
-    slots[0] = Slot { bounds, first: base + right_slot as u32, count: 0 };
-    let (head, rest) = slots.split_at_mut(right_slot);
-    let lslots = &mut head[1..];
-    let rslots = &mut rest[..2 * nr - 1];
+    let me = out.len();
+    // The right child's index is known once the left subtree is in place.
+    out.push(Bvh2Node { bounds, first: 0, count: 0 });
     let (lrefs, rrefs) = refs.split_at_mut(nl);
-    let (lbase, rbase) = (base + 1, base + right_slot as u32);
     let (lfirst, rfirst) = (first, first + nl as u32);
     let (dl, dr) = if n > s.par {
-        rayon::join(
-            || build_rec(s, lrefs, lslots, lbase, lfirst, lb, lcb, depth + 1),
-            || build_rec(s, rrefs, rslots, rbase, rfirst, rb, rcb, depth + 1),
-        )
+        let mut right = Vec::with_capacity(2 * rrefs.len() - 1);
+        let (dl, dr) = rayon::join(
+            || build_rec(s, lrefs, out, base, lfirst, lb, lcb, depth + 1),
+            || build_rec(s, rrefs, &mut right, 0, rfirst, rb, rcb, depth + 1),
+        );
+        let shift = base + out.len() as u32;
+        out[me].first = shift;
+        out.extend(right.into_iter().map(|mut node| {
+            if node.count == 0 {
+                node.first += shift;
+            }
+            node
+        }));
+        (dl, dr)
     } else {
-        (
-            build_rec(s, lrefs, lslots, lbase, lfirst, lb, lcb, depth + 1),
-            build_rec(s, rrefs, rslots, rbase, rfirst, rb, rcb, depth + 1),
-        )
+        let dl = build_rec(s, lrefs, out, base, lfirst, lb, lcb, depth + 1);
+        out[me].first = base + out.len() as u32;
+        let dr = build_rec(s, rrefs, out, base, rfirst, rb, rcb, depth + 1);
+        (dl, dr)
     };
     1 + dl.max(dr)
 }
@@ -373,13 +439,38 @@ fn build_rec(
 /// Builds a binary BVH over primitive boxes (index = primitive id). Boxes that are empty or not
 /// finite are left out.
 pub(crate) fn build_bvh2(boxes: &[Bounds3], options: &BuildOptions) -> Bvh2 {
-    let refs: Vec<PrimRef> = boxes
-        .par_iter()
-        .enumerate()
-        .filter(|(_, b)| !b.is_empty() && b.min.is_finite() && b.max.is_finite())
-        .map(|(i, b)| PrimRef { min: b.min, id: i as u32, max: b.max, _pad: 0 })
+    build_from_refs(prim_refs(boxes.len(), |i| boxes[i]), options)
+}
+
+/// Builds a binary BVH over triangles (vertex indices into `positions`); triangles with an
+/// index out of range or a vertex that is not finite are left out. The same tree as
+/// `build_bvh2` over their boxes, without a frame of boxes in between.
+pub(crate) fn build_bvh2_triangles(positions: &[Vec3], triangles: &[[u32; 3]], options: &BuildOptions) -> Bvh2 {
+    let bounds = |i: usize| match crate::fetch_triangle(positions, triangles, i as u32) {
+        Some([a, b, c]) => Bounds3::from_points([a, b, c].map(Vec3::from_array)),
+        None => Bounds3::EMPTY,
+    };
+    build_from_refs(prim_refs(triangles.len(), bounds), options)
+}
+
+/// One reference per primitive whose box is neither empty nor non-finite, in index order. Made
+/// in place by every thread (an indexed map writes straight into the vector, so its pages are
+/// first touched in parallel), then the rare unusable boxes are dropped.
+fn prim_refs(n: usize, bounds: impl Fn(usize) -> Bounds3 + Sync) -> Vec<PrimRef> {
+    let usable = |b: &Bounds3| !b.is_empty() && b.min.is_finite() && b.max.is_finite();
+    let mut refs: Vec<PrimRef> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let b = bounds(i);
+            // An unusable box keeps an id past the end, so that it is found and dropped below.
+            let id = if usable(&b) { i as u32 } else { u32::MAX };
+            PrimRef::new(&b, id)
+        })
         .collect();
-    build_from_refs(refs, options)
+    if refs.par_iter().any(|r| r.id() == u32::MAX) {
+        refs.retain(|r| r.id() != u32::MAX);
+    }
+    refs
 }
 
 fn build_from_refs(mut refs: Vec<PrimRef>, options: &BuildOptions) -> Bvh2 {
@@ -405,26 +496,10 @@ fn build_from_refs(mut refs: Vec<PrimRef>, options: &BuildOptions) -> Bvh2 {
     } else {
         bounds_of(&refs)
     };
-    let mut slots = vec![Slot { bounds: Bounds3::EMPTY, first: 0, count: UNUSED }; 2 * n - 1];
-    let depth = build_rec(&s, &mut refs, &mut slots, 0, 0, bounds, cbounds, 1);
-
-    // Compact the gapped pre-order array in place: used slots keep their order, so a left child
-    // still follows its parent; right-child indices are remapped.
-    let mut remap = vec![0u32; slots.len()];
-    let mut used = 0u32;
-    for (i, slot) in slots.iter().enumerate() {
-        remap[i] = used;
-        if slot.count != UNUSED {
-            used += 1;
-        }
-    }
-    let mut nodes = Vec::with_capacity(used as usize);
-    for slot in slots.iter().filter(|s| s.count != UNUSED) {
-        let first = if slot.count == 0 { remap[slot.first as usize] } else { slot.first };
-        nodes.push(Bvh2Node { bounds: slot.bounds, first, count: slot.count });
-    }
-    drop(slots);
-    let prims = refs.iter().map(|r| r.id).collect();
+    // At most 2n − 1 nodes; only the pages the nodes use are ever touched.
+    let mut nodes = Vec::with_capacity(2 * n - 1);
+    let depth = build_rec(&s, &mut refs, &mut nodes, 0, 0, bounds, cbounds, 1);
+    let prims = refs.par_iter().map(PrimRef::id).collect();
     Bvh2::from_parts(nodes, prims, depth as usize, s.ct, s.ci)
 }
 
@@ -477,6 +552,36 @@ mod tests {
                     assert_eq!(node.bounds.union(cb), node.bounds);
                 }
             }
+        }
+    }
+
+    #[test]
+    fn a_reference_keeps_its_box_and_id() {
+        let b = Bounds3::new(Vec3::new(-1.0, 2.0, 3.5), Vec3::new(4.0, 5.0, 6.0));
+        for id in [0, 1, 5, (1 << 23) - 1, 1 << 23, (127 << 23) - 1, 127 << 23, 1 << 30, u32::MAX - 1, u32::MAX] {
+            let r = PrimRef::new(&b, id);
+            assert_eq!(r.id(), id);
+            let (lo, hi) = r.corners();
+            assert_eq!((Vec3::from(lo), Vec3::from(hi)), (b.min, b.max));
+            // Ids below 127·2^23 ride as normal floats (no subnormal arithmetic in the fourth lane).
+            if id < 127 << 23 {
+                assert!(r.lo.w.is_normal(), "{id}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_tree_is_the_same_on_any_thread_count() {
+        let b = boxes(60_000);
+        let opts = BuildOptions { parallel_threshold: 64, ..BuildOptions::default() };
+        let build = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("a pool");
+            pool.install(|| build_bvh2(&b, &opts))
+        };
+        let (one, two, three) = (build(1), build(2), build(3));
+        for other in [&two, &three] {
+            assert_eq!(one.prim_indices(), other.prim_indices());
+            assert_eq!(one.nodes(), other.nodes());
         }
     }
 

@@ -109,7 +109,7 @@ impl Bvh2 {
     /// Builds over triangles (`prim` = index into `triangles`). Triangles with an out-of-range
     /// index or a non-finite vertex are left out: they are never hit.
     pub fn build(positions: &[Vec3], triangles: &[[u32; 3]], options: &crate::BuildOptions) -> Self {
-        crate::build::build_bvh2(&crate::triangle_boxes(positions, triangles), options)
+        crate::build::build_bvh2_triangles(positions, triangles, options)
     }
 
     /// Builds over arbitrary primitive boxes (`prim` = index into `boxes`); empty or non-finite

@@ -37,9 +37,8 @@ pub use spheres::SphereSet;
 pub use tlas::Tlas;
 pub use wide::{Bvh4, Bvh8, Isa, WideBvh};
 
-use glint_core::{Bounds3, Ray, Vec3};
+use glint_core::{Ray, Vec3};
 use primitives::{WoopRay, woop};
-use rayon::prelude::*;
 
 /// A closest hit: distance, the primitive's index in the caller's input, and barycentrics
 /// (`point = (1 − u − v) p0 + u p1 + v p2`).
@@ -75,17 +74,6 @@ pub(crate) fn fetch_triangle(positions: &[Vec3], triangles: &[[u32; 3]], p: u32)
     let b = *positions.get(t[1] as usize)?;
     let c = *positions.get(t[2] as usize)?;
     (a.is_finite() && b.is_finite() && c.is_finite()).then_some([a.to_array(), b.to_array(), c.to_array()])
-}
-
-/// Box of every triangle; empty for triangles that are never hit.
-pub(crate) fn triangle_boxes(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Bounds3> {
-    (0..triangles.len() as u32)
-        .into_par_iter()
-        .map(|p| match fetch_triangle(positions, triangles, p) {
-            Some([a, b, c]) => Bounds3::from_points([a, b, c].map(Vec3::from_array)),
-            None => Bounds3::EMPTY,
-        })
-        .collect()
 }
 
 /// Closest hit by testing every triangle: the oracle. Ties keep the lowest index.

@@ -126,6 +126,47 @@ fn bench_rays_dumps_what_it_traced() {
     }
 }
 
+/// `--builds N` times N builds of the scene's structures and reports their median and fastest
+/// (the build benchmark of BENCHMARKS.md §2.1); zero builds is refused.
+#[test]
+fn bench_rays_times_repeated_builds() {
+    let Some(bunny) = shared("data/meshes/stanford_bunny_bun_zipper.ply") else { return };
+    let d = scratch("bench-builds");
+    let run = |builds: &str| {
+        glint(
+            &[
+                "bench",
+                "rays",
+                "--scene",
+                bunny.to_str().unwrap(),
+                "--width",
+                "32",
+                "--height",
+                "24",
+                "--reps",
+                "1",
+                "--builds",
+                builds,
+            ],
+            &d,
+        )
+    };
+    let o = run("3");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let line = out.lines().find(|l| l.starts_with("scene:")).unwrap_or_default();
+    let field = |key: &str| -> f64 {
+        let rest = &line[line.find(key).unwrap_or_else(|| panic!("no {key:?} in {line:?}")) + key.len()..];
+        rest.split_whitespace().next().unwrap().parse().unwrap()
+    };
+    let (median, fastest) = (field("build median "), field("fastest "));
+    assert!(fastest > 0.0 && fastest <= median, "{line}");
+    assert!(line.contains("of 3;"), "{line}");
+    let o = run("0");
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--builds must be at least 1"), "{}", stderr(&o));
+}
+
 /// `--scene-time` shows scenes/animated.toml at a time: two times give two pictures, time 0
 /// is the scene as loaded, and a non-finite time is refused.
 #[test]

@@ -184,7 +184,7 @@ impl<const N: usize> WideBvh<N> {
         let mut out = Self {
             nodes: Vec::new(),
             packets: Vec::new(),
-            triangles: triangles.to_vec(),
+            triangles: triangles.par_iter().copied().collect(),
             bounds: bvh2.bounds(),
             depth: 0,
             leaves: 0,
@@ -194,20 +194,17 @@ impl<const N: usize> WideBvh<N> {
             return out;
         }
         let prims = bvh2.prim_indices();
-        let leaf_ref = |out: &mut Self, n: usize| {
+        // The tree's shape first, on one thread, with no triangle data: each leaf gets its
+        // packets' slots (a packet is named by the run of primitive ids it will hold); then
+        // every thread fills the packets straight into their places.
+        let mut runs: Vec<(u32, u32)> = Vec::new();
+        let mut leaf_ref = |out: &mut Self, n: usize| {
             let node = &b2[n];
-            let ids = &prims[node.first as usize..(node.first + node.count) as usize];
-            let first = out.packets.len();
-            for chunk in ids.chunks(PACKET) {
-                let mut p = TriPacket { v: [[[0.0; PACKET]; 3]; 3], prim: [0; PACKET] };
-                for lane in 0..PACKET {
-                    let id = chunk[lane.min(chunk.len() - 1)];
-                    p.set_lane(lane, fetch_triangle(positions, triangles, id), id);
-                }
-                out.packets.push(p);
-            }
+            let first = runs.len();
+            let end = node.first + node.count;
+            runs.extend((node.first..end).step_by(PACKET).map(|start| (start, (end - start).min(PACKET as u32))));
             out.leaves += 1;
-            let count = (out.packets.len() - first).min(MAX_LEAF_PACKETS) as u32;
+            let count = (runs.len() - first).min(MAX_LEAF_PACKETS) as u32;
             LEAF | count << COUNT_SHIFT | first as u32
         };
         out.nodes.push(WideNode::EMPTY);
@@ -215,33 +212,48 @@ impl<const N: usize> WideBvh<N> {
             out.nodes[0].set_bounds(0, &b2[0].bounds);
             out.nodes[0].child[0] = leaf_ref(&mut out, 0);
             out.depth = 1;
-            return out;
-        }
-        // (binary node, wide node, depth)
-        let mut work = vec![(0usize, 0usize, 1usize)];
-        while let Some((b, w, depth)) = work.pop() {
-            out.depth = out.depth.max(depth);
-            let mut kids: Vec<usize> = vec![b + 1, b2[b].first as usize];
-            while kids.len() < N {
-                let widest = kids.iter().enumerate().filter(|(_, k)| !b2[**k].is_leaf()).max_by(|x, y| {
-                    b2[*x.1].bounds.half_area().total_cmp(&b2[*y.1].bounds.half_area()).then(y.0.cmp(&x.0))
-                });
-                let Some((i, &k)) = widest else { break };
-                kids[i] = k + 1;
-                kids.push(b2[k].first as usize);
+        } else {
+            // (binary node, wide node, depth)
+            let mut work = vec![(0usize, 0usize, 1usize)];
+            let mut kids: Vec<usize> = Vec::with_capacity(N);
+            while let Some((b, w, depth)) = work.pop() {
+                out.depth = out.depth.max(depth);
+                kids.clear();
+                kids.extend([b + 1, b2[b].first as usize]);
+                while kids.len() < N {
+                    let widest = kids.iter().enumerate().filter(|(_, k)| !b2[**k].is_leaf()).max_by(|x, y| {
+                        b2[*x.1].bounds.half_area().total_cmp(&b2[*y.1].bounds.half_area()).then(y.0.cmp(&x.0))
+                    });
+                    let Some((i, &k)) = widest else { break };
+                    kids[i] = k + 1;
+                    kids.push(b2[k].first as usize);
+                }
+                for (slot, &k) in kids.iter().enumerate() {
+                    out.nodes[w].set_bounds(slot, &b2[k].bounds);
+                    out.nodes[w].child[slot] = if b2[k].is_leaf() {
+                        leaf_ref(&mut out, k)
+                    } else {
+                        out.nodes.push(WideNode::EMPTY);
+                        let idx = out.nodes.len() - 1;
+                        work.push((k, idx, depth + 1));
+                        idx as u32
+                    };
+                }
             }
-            for (slot, &k) in kids.iter().enumerate() {
-                out.nodes[w].set_bounds(slot, &b2[k].bounds);
-                out.nodes[w].child[slot] = if b2[k].is_leaf() {
-                    leaf_ref(&mut out, k)
-                } else {
-                    out.nodes.push(WideNode::EMPTY);
-                    let idx = out.nodes.len() - 1;
-                    work.push((k, idx, depth + 1));
-                    idx as u32
-                };
-            }
         }
+        out.packets = runs
+            .par_iter()
+            .map(|&(start, len)| {
+                let ids = &prims[start as usize..(start + len) as usize];
+                let mut p = TriPacket { v: [[[0.0; PACKET]; 3]; 3], prim: [0; PACKET] };
+                for lane in 0..PACKET {
+                    // Short packets repeat their last triangle.
+                    let id = ids[lane.min(ids.len() - 1)];
+                    p.set_lane(lane, fetch_triangle(positions, triangles, id), id);
+                }
+                p
+            })
+            .collect();
         out
     }
 

@@ -142,14 +142,26 @@ fn rays(a: &BenchRaysArgs) -> Result<()> {
     for _ in 0..a.subdivide {
         scene.meshes = scene.meshes.iter().map(|m| std::sync::Arc::new(subdivide(m))).collect();
     }
+    if a.builds == 0 {
+        bail!("--builds must be at least 1");
+    }
     pool.install(|| -> Result<()> {
+        let mut builds = Vec::with_capacity(a.builds);
+        for _ in 1..a.builds {
+            builds.push(World::new(scene.clone()).stats.build_ms);
+        }
         let world = World::new(scene);
+        builds.push(world.stats.build_ms);
+        let build = if a.builds == 1 {
+            format!("build {:.1} ms", builds[0])
+        } else {
+            format!("build median {:.1} ms, fastest {:.1} ms of {}", median(&mut builds), builds[0], a.builds)
+        };
         out!(
-            "scene: {} triangles, {} instances, {} planes; build {:.1} ms; {:.1} bytes of BVH nodes per triangle",
+            "scene: {} triangles, {} instances, {} planes; {build}; {:.1} bytes of BVH nodes per triangle",
             world.stats.triangles,
             world.stats.instances,
             world.stats.planes,
-            world.stats.build_ms,
             world.stats.node_bytes as f64 / world.stats.triangles.max(1) as f64
         );
         let rays = make_rays(&world, a.kind, a.width, a.height, a.seed);
