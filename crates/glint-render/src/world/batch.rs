@@ -94,6 +94,35 @@ fn box8<I: Isa>(rays: &Rays8<I>, inv: &V8<I>, active: M8<I>, b: &Bounds3) -> M8<
     ((near.le(far) & near.le(rays.tmax)) | unsure) & active
 }
 
+/// The sphere-set member each lane's nearest hit is on so far, carried across lanes while the
+/// search runs (so the surface data needs no lane-by-lane look-up of the instances).
+#[derive(Clone, Copy)]
+struct SetSpheres<I: Isa> {
+    centre: V8<I>,
+    radius: F8<I>,
+    material: U8x<I>,
+    object: U8x<I>,
+    /// Some taken member's material has a texture (then the uv are computed).
+    textured: bool,
+}
+
+impl<I: Isa> SetSpheres<I> {
+    #[inline(always)]
+    fn none() -> Self {
+        Self { centre: V8::zero(), radius: F8::zero(), material: U8x::splat(0), object: U8x::splat(0), textured: false }
+    }
+
+    /// Lanes `take` now hit the sphere (`centre`, `radius`) of `instance`.
+    #[inline(always)]
+    fn take(&mut self, take: M8<I>, instance: &super::instances::Instance, centre: Vec3, radius: f32, textured: bool) {
+        self.centre = V8::select(take, V8::splat(centre), self.centre);
+        self.radius = F8::select(take, F8::splat(radius), self.radius);
+        self.material = U8x::select(take, U8x::splat(instance.material), self.material);
+        self.object = U8x::select(take, U8x::splat(instance.object), self.object);
+        self.textured |= textured;
+    }
+}
+
 impl World {
     /// The closest hits of the active lanes of `rays` into `out`: lane `i` is
     /// [`World::intersect`]`(&rays.ray(i))`. `out` is written in place (a caller keeps one
@@ -115,17 +144,23 @@ impl World {
         let mut kind = U8x::splat(NONE);
         let mut index = U8x::splat(0);
         let mut tri = Hits8::none();
+        let mut set = SetSpheres::none();
         // The sphere set: nearest, the lower index on ties (as `SphereSet::closest`).
         for (k, &inst) in self.sphere_instances.iter().enumerate() {
             if k < 64 && spheres >> k & 1 == 0 {
                 continue;
             }
-            let InstanceShape::Sphere { centre, radius } = self.instances[inst as usize].shape else { continue };
+            let instance = &self.instances[inst as usize];
+            let InstanceShape::Sphere { centre, radius } = instance.shape else { continue };
             let (hit, t) = sphere8(rays, dd, active, centre, radius);
             let take = hit & (t.lt(best) | kind.eq(U8x::splat(NONE)));
+            if take.none() {
+                continue;
+            }
             best = F8::select(take, t, best);
             kind = U8x::select(take, U8x::splat(SET_SPHERE), kind);
             index = U8x::select(take, U8x::splat(inst), index);
+            set.take(take, instance, centre, radius, self.scene.materials[instance.material as usize].texture.is_some());
         }
         if self.tlas_used && self.top_members.len() > FLAT_TOP_LIMIT {
             *out = self.intersect_lanes(rays, active);
@@ -176,7 +211,7 @@ impl World {
             kind = U8x::select(hit, U8x::splat(PLANE), kind);
             index = U8x::select(hit, U8x::splat(pi as u32), index);
         }
-        self.surfaces8(rays, best, kind, index, &tri, out);
+        self.surfaces8(rays, best, kind, index, &tri, &set, out);
     }
 
     /// Lane by lane through the single-ray query (a top level too large to visit flat).
@@ -215,13 +250,14 @@ impl World {
         kind: U8x<I>,
         index: U8x<I>,
         tri: &Hits8<I>,
+        set: &SetSpheres<I>,
         out: &mut Surfaces8<I>,
     ) {
         out.t = t;
         out.hit = !kind.eq(U8x::splat(NONE));
         let spheres = kind.eq(U8x::splat(SET_SPHERE));
         if spheres.any() {
-            self.sphere_surfaces(rays, spheres, index, out);
+            self.sphere_surfaces(rays, spheres, set, out);
         }
         let planes = kind.eq(U8x::splat(PLANE));
         if planes.any() {
@@ -245,22 +281,10 @@ impl World {
     }
 
     /// Sphere-set hits across lanes: `World::instance_hit` of an untransformed sphere, lane
-    /// by lane the same operations.
+    /// by lane the same operations, each lane's sphere as the search carried it in `set`.
     #[inline(always)]
-    fn sphere_surfaces<I: Isa>(&self, rays: &Rays8<I>, lanes: M8<I>, index: U8x<I>, out: &mut Surfaces8<I>) {
-        let (mut centre, mut radius, mut material, mut object) = (V8::zero(), F8::zero(), U8x::splat(0), U8x::splat(0));
-        let mut textured = false;
-        for i in 0..LANES {
-            if lanes.lane(i) {
-                let inst = &self.instances[index[i] as usize];
-                if let InstanceShape::Sphere { centre: c, radius: r } = inst.shape {
-                    centre.set(i, c);
-                    radius[i] = r;
-                }
-                (material[i], object[i]) = (inst.material, inst.object);
-                textured |= self.scene.materials[inst.material as usize].texture.is_some();
-            }
-        }
+    fn sphere_surfaces<I: Isa>(&self, rays: &Rays8<I>, lanes: M8<I>, set: &SetSpheres<I>, out: &mut Surfaces8<I>) {
+        let SetSpheres { centre, radius, material, object, textured } = *set;
         let local = rays.origin + rays.dir.scale(out.t) - centre;
         let rcp = F8::one() / local.dot(local).sqrt();
         let ok = rcp.lt(F8::splat(f32::INFINITY)) & rcp.gt(F8::zero());
