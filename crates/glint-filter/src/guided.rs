@@ -128,10 +128,12 @@ impl Layout {
 
 /// Rows per strip: the fewest strips (a power of two, for an even split over 2^k threads) such
 /// that the recomputed coefficient rows (2r per inner strip boundary) stay under 1/8 of the
-/// image, and no strip is shorter than 16 rows.
+/// image, and no strip is shorter than 16 rows; but at least two whenever each half (h/2 rows
+/// and the r beyond its inner end) is less work than the whole, so that a large radius still
+/// runs on two threads (r = 64 on 768 rows ran as one strip, on one thread).
 fn strip_bounds(h: usize, r: usize) -> Vec<(usize, usize)> {
     let mut n = 1;
-    while n < 64 && (2 * n - 1) * 2 * r * 8 <= h && h / (2 * n) >= 16 {
+    while n < 64 && h / (2 * n) >= 16 && ((2 * n - 1) * 2 * r * 8 <= h || (n == 1 && 2 * r < h)) {
         n *= 2;
     }
     (0..n).map(|i| (i * h / n, (i + 1) * h / n)).collect()
@@ -674,5 +676,9 @@ mod tests {
         assert_eq!(strip_bounds(768, 28), vec![(0, 384), (384, 768)]);
         assert_eq!(strip_bounds(768, 8).len(), 4);
         assert_eq!(strip_bounds(10, 1), vec![(0, 10)]);
+        // A large radius still splits in two while half plus its margin is less than the whole.
+        assert_eq!(strip_bounds(768, 64), vec![(0, 384), (384, 768)]);
+        assert_eq!(strip_bounds(768, 383), vec![(0, 384), (384, 768)]);
+        assert_eq!(strip_bounds(768, 384), vec![(0, 768)]);
     }
 }
