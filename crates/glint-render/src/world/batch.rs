@@ -160,7 +160,13 @@ impl World {
             best = F8::select(take, t, best);
             kind = U8x::select(take, U8x::splat(SET_SPHERE), kind);
             index = U8x::select(take, U8x::splat(inst), index);
-            set.take(take, instance, centre, radius, self.scene.materials[instance.material as usize].texture.is_some());
+            set.take(
+                take,
+                instance,
+                centre,
+                radius,
+                self.scene.materials[instance.material as usize].texture.is_some(),
+            );
         }
         if self.tlas_used && self.top_members.len() > FLAT_TOP_LIMIT {
             *out = self.intersect_lanes(rays, active);
@@ -243,6 +249,7 @@ impl World {
 
     /// The surface data of the lanes' closest hits (see [`Self::intersect_batch`]).
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)] // the search's state, lane planes by field
     fn surfaces8<I: Isa>(
         &self,
         rays: &Rays8<I>,
