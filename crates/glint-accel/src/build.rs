@@ -177,21 +177,28 @@ impl BinMap {
     fn bins_of(&self, c2: Vec3A) -> [usize; 3] {
         // Clamped to [0, last], then rounded with the 1.5·2^23 trick (adding it leaves
         // round(x) in the low mantissa bits): no saturating float→int conversion in the hot
-        // loop. round(b − 0.5) stays in [0, last]. Binning and partitioning call this same
-        // function, so they always agree.
+        // loop. round(b − 0.5) stays in [0, last]. Binning uses this, partitioning `bin_of`:
+        // the same IEEE operations per axis, so they always agree.
         let b = ((c2 - self.base) * self.scale).max(Vec3A::ZERO).min(Vec3A::splat(self.last));
-        let r = (b - Vec3A::splat(0.5)) + Vec3A::splat(12_582_912.0);
-        let idx = |x: f32| ((x.to_bits() & 0x7f_ffff).wrapping_sub(0x40_0000) as usize) % MAX_BINS;
-        [idx(r.x), idx(r.y), idx(r.z)]
+        let r = (b - Vec3A::splat(0.5)) + Vec3A::splat(ROUND);
+        [r.x, r.y, r.z].map(rounded_bin)
     }
 
     /// `bins_of(c2)[axis]`, the same arithmetic on one axis.
     #[inline]
     fn bin_of(&self, c2: Vec3A, axis: usize) -> usize {
         let b = ((c2[axis] - self.base[axis]) * self.scale[axis]).max(0.0).min(self.last);
-        let r = (b - 0.5) + 12_582_912.0;
-        ((r.to_bits() & 0x7f_ffff).wrapping_sub(0x40_0000) as usize) % MAX_BINS
+        rounded_bin((b - 0.5) + ROUND)
     }
+}
+
+/// 1.5 · 2²³: adding it to x in [−0.5, 2²²) leaves round(x) in the low mantissa bits.
+const ROUND: f32 = 12_582_912.0;
+
+/// The bin index held in the low mantissa bits of `r = x + ROUND`.
+#[inline(always)]
+fn rounded_bin(r: f32) -> usize {
+    ((r.to_bits() & 0x7f_ffff).wrapping_sub(0x40_0000) as usize) % MAX_BINS
 }
 
 impl Bins {
@@ -369,14 +376,13 @@ fn build_rec(
     let mut split = None;
     let mut map = None;
     if !centroids_equal && depth < SAH_DEPTH_LIMIT {
-        let n_bins = s.bins;
-        let m = BinMap::new(&cbounds, n_bins);
+        let m = BinMap::new(&cbounds, s.bins);
         let bins = if n > PARALLEL_BINNING {
             refs.par_chunks(BIN_CHUNK).map(|c| bin_slice(c, &m)).reduce(Bins::new, |a, b| a.merge(&b))
         } else {
             bin_slice(refs, &m)
         };
-        split = best_split(&bins, n_bins);
+        split = best_split(&bins, s.bins);
         map = Some(m);
     }
     let (nl, lb, lcb, rb, rcb) = match (split, map) {
