@@ -50,34 +50,64 @@ fn batched_and_scalar_tracers_make_the_same_pictures() {
     let scenes = scenes();
     assert!(scenes.len() >= 6, "{} scenes", scenes.len());
     for (name, scene) in scenes {
-        let world = World::new(scene);
-        for n in [1, 2] {
-            let base = Settings {
-                width: 160,
-                height: 90,
-                samples_per_side: n,
-                ..Settings::from_defaults(&world.scene().render)
-            };
-            let frame = |kernel| render(&world, &Settings { kernel, ..base }).unwrap();
-            let (scalar, s_stats) = frame(WhittedKernel::Scalar);
-            let (batched, b_stats) = frame(WhittedKernel::Batched);
-            let (baseline, _) = frame(WhittedKernel::BatchedBaseline);
-            assert_eq!(s_stats.rays, b_stats.rays, "{name} ({n}×{n}): the same rays traced");
-            let bits = |f: &Film| f.pixels.iter().map(|p| p.colour.to_array().map(f32::to_bits)).collect::<Vec<_>>();
-            assert!(bits(&batched) == bits(&baseline), "{name} ({n}×{n}): the AVX2 and baseline builds differ");
-            let (a, b) = (srgb8(&scalar), srgb8(&batched));
-            let mut off = 0;
-            for (p, q) in a.chunks(3).zip(b.chunks(3)) {
-                let worst = p.iter().zip(q).map(|(x, y)| x.abs_diff(*y)).max().unwrap_or(0);
-                assert!(worst <= 1, "{name} ({n}×{n}): a pixel differs by {worst}/255");
-                off += usize::from(worst > 0);
+        same_pictures(&name, scene);
+    }
+}
+
+/// Spot lights of every falloff curve (glint's smoothstep, Mitsuba's linear angle, glTF's
+/// squared cosine: the curves imported scenes bring), each cone's edge on the demo's floor.
+#[test]
+fn batched_and_scalar_tracers_light_spots_alike() {
+    use glint_scene::{Attenuation, Light, SpotFalloff};
+    let mut scene = glint_formats::load_scene_str(glint_formats::DEMO_SCENE, Path::new("."), "demo").unwrap().scene;
+    let target = scene.bounds().centre();
+    scene.lights = [SpotFalloff::Smoothstep, SpotFalloff::LinearAngle, SpotFalloff::SquaredCosine]
+        .into_iter()
+        .enumerate()
+        .map(|(k, falloff)| {
+            let position = target + glint_core::Vec3::new(k as f32 * 2.0 - 2.0, 6.0, 2.0);
+            Light::Spot {
+                position,
+                direction: (target - position).normalize(),
+                inner_deg: 10.0 + 5.0 * k as f32,
+                outer_deg: 30.0,
+                colour: glint_core::Rgb::ONE,
+                intensity: 0.8,
+                attenuation: Attenuation::None,
+                falloff,
+                projection: None,
             }
-            let pixels = a.len() / 3;
-            eprintln!("{name} ({n}×{n}): {off} of {pixels} pixels 1/255 apart");
-            assert!(off * 1000 <= pixels, "{name} ({n}×{n}): {off} of {pixels} pixels differ by 1/255");
-            for (p, q) in scalar.pixels.iter().zip(&batched.pixels) {
-                assert_eq!((p.coverage, p.depth.to_bits()), (q.coverage, q.depth.to_bits()), "{name}: AOVs");
-            }
+        })
+        .collect();
+    same_pictures("demo under three spots", scene);
+}
+
+/// Render `scene` with the scalar tracer, the batched one and its baseline build, at one sample
+/// and 2×2 samples, and hold them to the module's criteria.
+fn same_pictures(name: &str, scene: glint_scene::Scene) {
+    let world = World::new(scene);
+    for n in [1, 2] {
+        let base =
+            Settings { width: 160, height: 90, samples_per_side: n, ..Settings::from_defaults(&world.scene().render) };
+        let frame = |kernel| render(&world, &Settings { kernel, ..base }).unwrap();
+        let (scalar, s_stats) = frame(WhittedKernel::Scalar);
+        let (batched, b_stats) = frame(WhittedKernel::Batched);
+        let (baseline, _) = frame(WhittedKernel::BatchedBaseline);
+        assert_eq!(s_stats.rays, b_stats.rays, "{name} ({n}×{n}): the same rays traced");
+        let bits = |f: &Film| f.pixels.iter().map(|p| p.colour.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+        assert!(bits(&batched) == bits(&baseline), "{name} ({n}×{n}): the AVX2 and baseline builds differ");
+        let (a, b) = (srgb8(&scalar), srgb8(&batched));
+        let mut off = 0;
+        for (p, q) in a.chunks(3).zip(b.chunks(3)) {
+            let worst = p.iter().zip(q).map(|(x, y)| x.abs_diff(*y)).max().unwrap_or(0);
+            assert!(worst <= 1, "{name} ({n}×{n}): a pixel differs by {worst}/255");
+            off += usize::from(worst > 0);
+        }
+        let pixels = a.len() / 3;
+        eprintln!("{name} ({n}×{n}): {off} of {pixels} pixels 1/255 apart");
+        assert!(off * 1000 <= pixels, "{name} ({n}×{n}): {off} of {pixels} pixels differ by 1/255");
+        for (p, q) in scalar.pixels.iter().zip(&batched.pixels) {
+            assert_eq!((p.coverage, p.depth.to_bits()), (q.coverage, q.depth.to_bits()), "{name}: AOVs");
         }
     }
 }

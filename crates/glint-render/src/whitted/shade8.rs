@@ -14,7 +14,8 @@ use glint_accel::batch::RayOrigins8;
 use glint_accel::batch::Rays8;
 use glint_accel::lanes::{F8, Isa, LANES, M8, U8x, V8, pow_unit};
 use glint_core::{Rgb, Vec3};
-use glint_scene::{Attenuation, Light, Material, Sky, Texture};
+use glint_scene::light::{spot_falloff_gltf, spot_falloff_linear};
+use glint_scene::{Attenuation, Light, Material, Sky, SpotFalloff, Texture};
 
 use crate::world::Surfaces8;
 
@@ -138,6 +139,11 @@ pub(super) struct LightLanes {
     inverse_square: bool,
     cos_inner: f32,
     cos_outer: f32,
+    /// A spot's curve between its cones, and the cones in degrees (for the curves other than
+    /// smoothstep, worked out lane by lane by the scalar functions).
+    falloff: SpotFalloff,
+    inner_deg: f32,
+    outer_deg: f32,
     /// The sphere set seen from the light's position (point and spot lights): shadow
     /// packets skip the spheres none of their rays can cross.
     cones: Option<PointCones>,
@@ -161,6 +167,9 @@ impl LightLanes {
             inverse_square: false,
             cos_inner: 1.0,
             cos_outer: 1.0,
+            falloff: SpotFalloff::Smoothstep,
+            inner_deg: 0.0,
+            outer_deg: 0.0,
             cones: None,
         };
         match *light {
@@ -175,19 +184,22 @@ impl LightLanes {
             Light::Directional { direction, colour, intensity } => {
                 LightLanes { kind: LightKind::Directional, direction, colour, intensity, ..base }
             }
-            Light::Spot { position, direction, inner_deg, outer_deg, colour, intensity, attenuation, .. } => {
-                LightLanes {
-                    kind: LightKind::Spot,
-                    position,
-                    direction,
-                    colour,
-                    intensity,
-                    inverse_square: attenuation == Attenuation::InverseSquare,
-                    cos_inner: inner_deg.to_radians().cos(),
-                    cos_outer: outer_deg.to_radians().cos(),
-                    cones: Some(world.point_cones(position)),
-                }
-            }
+            Light::Spot {
+                position, direction, inner_deg, outer_deg, colour, intensity, attenuation, falloff, ..
+            } => LightLanes {
+                kind: LightKind::Spot,
+                position,
+                direction,
+                colour,
+                intensity,
+                inverse_square: attenuation == Attenuation::InverseSquare,
+                cos_inner: inner_deg.to_radians().cos(),
+                cos_outer: outer_deg.to_radians().cos(),
+                falloff,
+                inner_deg,
+                outer_deg,
+                cones: Some(world.point_cones(position)),
+            },
         }
     }
 
@@ -207,13 +219,25 @@ impl LightLanes {
         let mut lit = reaches;
         if self.kind == LightKind::Spot {
             let cos = (-wi).dot(V8::splat(self.direction));
-            let (ci, co) = (self.cos_inner, self.cos_outer);
-            let x = (cos - F8::splat(co)) / F8::splat(ci - co);
-            let smooth = x * x * (F8::splat(3.0) - F8::splat(2.0) * x);
-            let cone = if ci <= co {
-                F8::select(cos.ge(F8::splat(ci)), F8::one(), F8::zero())
-            } else {
-                F8::select(cos.ge(F8::splat(ci)), F8::one(), F8::select(cos.le(F8::splat(co)), F8::zero(), smooth))
+            let cone = match self.falloff {
+                SpotFalloff::Smoothstep => {
+                    let (ci, co) = (self.cos_inner, self.cos_outer);
+                    let x = (cos - F8::splat(co)) / F8::splat(ci - co);
+                    let smooth = x * x * (F8::splat(3.0) - F8::splat(2.0) * x);
+                    if ci <= co {
+                        F8::select(cos.ge(F8::splat(ci)), F8::one(), F8::zero())
+                    } else {
+                        let outside = F8::select(cos.le(F8::splat(co)), F8::zero(), smooth);
+                        F8::select(cos.ge(F8::splat(ci)), F8::one(), outside)
+                    }
+                }
+                // The imported scenes' curves (an arccosine, a clamp): rare, and exact lane by lane.
+                SpotFalloff::LinearAngle => {
+                    F8::from_fn(|i| spot_falloff_linear(cos[i], self.inner_deg, self.outer_deg))
+                }
+                SpotFalloff::SquaredCosine => {
+                    F8::from_fn(|i| spot_falloff_gltf(cos[i], self.inner_deg, self.outer_deg))
+                }
             };
             lit = lit & cone.gt(F8::zero());
             fall *= cone;
