@@ -17,6 +17,7 @@ mod film;
 mod first_touch;
 pub mod fixed;
 mod frame;
+mod lights8;
 pub mod path;
 pub mod points;
 mod settings;

@@ -5,6 +5,8 @@
 
 use super::view::View;
 use super::{PointFrame, PointShading};
+use crate::lights8::LightLanes;
+use glint_accel::lanes::{F8, Isa, LANES, LaneKernel, M8, U8x, V8, dispatch, pow_unit};
 use glint_core::{Rgb, Vec2, Vec3};
 use glint_scene::Scene;
 use glint_scene::sky::IrradianceSh;
@@ -24,6 +26,27 @@ pub fn shade(
     edl_strength: f32,
     frame: &mut PointFrame,
 ) {
+    shade_with(scene, view, sky_irradiance, shading, edl_strength, frame, Kernel::Best);
+}
+
+/// How Phong is computed: eight pixels at a time in the best lanes this CPU has, in the SSE
+/// lanes, or pixel by pixel (the oracle the tests hold the lanes to).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Kernel {
+    Best,
+    Baseline,
+    Scalar,
+}
+
+pub(super) fn shade_with(
+    scene: &Scene,
+    view: &View,
+    sky_irradiance: Option<&IrradianceSh>,
+    shading: PointShading,
+    edl_strength: f32,
+    frame: &mut PointFrame,
+    kernel: Kernel,
+) {
     let width = frame.width as usize;
     let height = frame.height as usize;
     // The angle one pixel subtends at the centre: the sky's filter footprint.
@@ -32,43 +55,190 @@ pub fn shade(
         glint_scene::Sky::Colour(c) => Some(*c),
         _ => None,
     };
+    // Phong in lanes, unless a light projects a texture (only `Light::sample_in` applies it).
+    let lanes = (matches!(shading, PointShading::Phong | PointShading::Auto)
+        && kernel != Kernel::Scalar
+        && !scene.lights.iter().any(glint_scene::Light::is_textured))
+    .then(|| PhongLanes::new(scene, sky_irradiance));
     let PointFrame { depth, normal, albedo, material, colour, .. } = frame;
     let (depth, normal, albedo, material) = (&*depth, &*normal, &*albedo, &*material);
     colour.par_chunks_mut(width).enumerate().with_min_len(4).for_each(|(y, row)| {
-        // The sky behind, eight pixels at a time (a map's lookups run across lanes).
-        let mut sky = [Rgb::ZERO; 8];
-        for (x, out) in row.iter_mut().enumerate() {
-            let i = y * width + x;
-            if constant_sky.is_none() && x % 8 == 0 {
-                let mut background = 0u8;
-                let mut dirs = [Vec3::ZERO; 8];
-                for k in 0..8.min(width - x) {
-                    if !depth[i + k].is_finite() {
-                        background |= 1 << k;
-                        let p = Vec2::new((x + k) as f32 + 0.5, y as f32 + 0.5);
-                        dirs[k] = view.ray_at_depth_one(p).normalize();
+        let g = GBufferRow {
+            depth: &depth[y * width..(y + 1) * width],
+            normal: &normal[y * width..(y + 1) * width],
+            albedo: &albedo[y * width..(y + 1) * width],
+            material: &material[y * width..(y + 1) * width],
+        };
+        for (x0, row) in row.chunks_mut(LANES).enumerate().map(|(k, r)| (k * LANES, r)) {
+            let n = row.len();
+            let mut out = [Rgb::ZERO; LANES];
+            // The sky behind, eight pixels at a time (a map's lookups run across lanes).
+            let mut background = 0u8;
+            let mut dirs = [Vec3::ZERO; LANES];
+            for (k, (dir, z)) in dirs.iter_mut().zip(&g.depth[x0..x0 + n]).enumerate() {
+                if !z.is_finite() {
+                    background |= 1 << k;
+                    if constant_sky.is_none() {
+                        let p = Vec2::new((x0 + k) as f32 + 0.5, y as f32 + 0.5);
+                        *dir = view.ray_at_depth_one(p).normalize();
                     }
                 }
-                if background != 0 {
-                    sky = scene.sky.radiance_filtered8(&dirs, &[cone; 8], background);
+            }
+            if background != 0 {
+                out = match constant_sky {
+                    Some(c) => [c; LANES],
+                    None => scene.sky.radiance_filtered8(&dirs, &[cone; LANES], background),
+                };
+            }
+            let surface = (((1u32 << n) - 1) as u8) & !background;
+            if surface != 0 {
+                if let Some(lanes) = &lanes {
+                    let run = PhongRun { lanes, view, g: &g, x0, y, surface, out: &mut out };
+                    dispatch(run, kernel == Kernel::Baseline);
+                } else {
+                    for k in (0..n).filter(|k| surface >> k & 1 == 1) {
+                        let (x, i) = (x0 + k, y * width + x0 + k);
+                        out[k] = match shading {
+                            PointShading::Flat => albedo[i],
+                            PointShading::EyeDome => albedo[i] * eye_dome(depth, width, height, x, y, edl_strength),
+                            PointShading::Phong | PointShading::Auto => {
+                                let dir = view.ray_at_depth_one(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+                                let position = view.eye + dir * depth[i];
+                                let wo = -dir.normalize();
+                                phong(scene, sky_irradiance, material[i], albedo[i], normal[i], position, wo)
+                            }
+                        };
+                    }
                 }
             }
-            let z = depth[i];
-            if !z.is_finite() {
-                *out = constant_sky.unwrap_or(sky[x % 8]);
-                continue;
-            }
-            let dir = view.ray_at_depth_one(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
-            *out = match shading {
-                PointShading::Flat => albedo[i],
-                PointShading::EyeDome => albedo[i] * eye_dome(depth, width, height, x, y, edl_strength),
-                PointShading::Phong | PointShading::Auto => {
-                    let position = view.eye + dir * z;
-                    phong(scene, sky_irradiance, material[i], albedo[i], normal[i], position, -dir.normalize())
-                }
-            };
+            row.copy_from_slice(&out[..n]);
         }
     });
+}
+
+/// One row's G-buffer.
+struct GBufferRow<'a> {
+    depth: &'a [f32],
+    normal: &'a [Vec3],
+    albedo: &'a [Rgb],
+    material: &'a [u32],
+}
+
+/// What Phong in lanes reads of the scene: the lights, the materials as arrays a lane can
+/// gather from, and the ambient light.
+struct PhongLanes<'a> {
+    lights: Vec<LightLanes>,
+    emission: Vec<Vec3>,
+    ambient: Vec<f32>,
+    diffuse: Vec<f32>,
+    specular: Vec<f32>,
+    shininess: Vec<f32>,
+    scene_ambient: Rgb,
+    sky_irradiance: Option<&'a IrradianceSh>,
+}
+
+impl<'a> PhongLanes<'a> {
+    fn new(scene: &Scene, sky_irradiance: Option<&'a IrradianceSh>) -> Self {
+        let m = &scene.materials;
+        Self {
+            lights: scene.lights.iter().map(LightLanes::new).collect(),
+            emission: m.iter().map(|m| m.emission).collect(),
+            ambient: m.iter().map(|m| m.ambient).collect(),
+            diffuse: m.iter().map(|m| m.diffuse).collect(),
+            specular: m.iter().map(|m| m.specular).collect(),
+            shininess: m.iter().map(|m| m.shininess).collect(),
+            scene_ambient: scene.ambient,
+            sky_irradiance,
+        }
+    }
+}
+
+/// Phong of the surface lanes of eight pixels of a row, into `out`.
+struct PhongRun<'a, 'b> {
+    lanes: &'a PhongLanes<'a>,
+    view: &'a View,
+    g: &'a GBufferRow<'b>,
+    x0: usize,
+    y: usize,
+    /// Lanes with a surface (the others keep what `out` holds).
+    surface: u8,
+    out: &'a mut [Rgb; LANES],
+}
+
+impl LaneKernel for PhongRun<'_, '_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run<I: Isa>(self) {
+        phong8::<I>(self);
+    }
+}
+
+/// [`phong`] of eight pixels, with [`shade`]'s view ray and position, lane by lane in the
+/// scalar code's order (no fused multiply-add), masks where it branches. One thing differs by
+/// a rounding: the specular power is [`pow_unit`] (relative error < 3e-5), not `powf`.
+#[inline(always)]
+fn phong8<I: Isa>(PhongRun { lanes: t, view, g, x0, y, surface, out }: PhongRun<'_, '_>) {
+    let n = LANES.min(g.depth.len() - x0);
+    let lanes = M8::<I>::from_bits(u32::from(surface));
+    let at = |k: usize| x0 + k.min(n - 1);
+    let z = F8::<I>::from_fn(|k| g.depth[at(k)]);
+    let normal = V8::<I>::from_fn(|k| g.normal[at(k)]);
+    let albedo = V8::<I>::from_fn(|k| g.albedo[at(k)]);
+    let material = U8x::<I>::from_array(std::array::from_fn(|k| g.material[at(k)]));
+    // The view ray through each pixel centre, z = 1 (View::ray_at_depth_one), and its point.
+    let px = F8::<I>::from_fn(|k| (x0 + k) as f32 + 0.5);
+    let qx = (px - F8::splat(view.centre.x)) / F8::splat(view.focal);
+    let qy = F8::<I>::splat(((y as f32 + 0.5) - view.centre.y) / view.focal);
+    let dir = V8::splat(view.forward) + V8::splat(view.right).scale(qx) + V8::splat(view.down).scale(qy);
+    let position = V8::splat(view.eye) + dir.scale(z);
+    let wo = -dir.normalize();
+    // The materials, gathered (one splat when the lanes share one, as they mostly do).
+    let m0 = material[0] as usize;
+    let shared = (0..LANES).all(|k| surface >> k & 1 == 0 || material[k] as usize == m0);
+    let count = t.ambient.len();
+    let known = M8::from_fn(|k| (material[k] as usize) < count);
+    let index = |k: usize| if shared { m0 } else { material[k] as usize };
+    let get = |v: &[f32], k: usize| v.get(index(k)).copied().unwrap_or(0.0);
+    let (ka, kd) = (F8::<I>::from_fn(|k| get(&t.ambient, k)), F8::<I>::from_fn(|k| get(&t.diffuse, k)));
+    let (ks, shininess) = (F8::<I>::from_fn(|k| get(&t.specular, k)), F8::<I>::from_fn(|k| get(&t.shininess, k)));
+    let emission = V8::<I>::from_fn(|k| t.emission.get(index(k)).copied().unwrap_or(Vec3::ZERO));
+    let ambient = match t.sky_irradiance {
+        Some(sh) => V8::from_fn(|k| {
+            if surface >> k & 1 == 1 {
+                t.scene_ambient * sh.irradiance(normal.lane(k)) * std::f32::consts::FRAC_1_PI
+            } else {
+                Rgb::ZERO
+            }
+        }),
+        None => V8::splat(t.scene_ambient),
+    };
+    let mut c = emission + (ambient * albedo).scale(ka);
+    for light in &t.lights {
+        let (wi, _, radiance, lit) = light.sample(position);
+        let cos_l = normal.dot(wi);
+        let seen = lanes & lit & cos_l.gt(F8::zero());
+        if seen.none() {
+            continue;
+        }
+        let r_dot_v = (normal.scale(F8::splat(2.0) * cos_l) - wi).dot(wo);
+        let wants = seen & ks.gt(F8::zero()) & r_dot_v.gt(F8::zero());
+        let mut spec = F8::zero();
+        if wants.any() {
+            let fast = wants & shininess.gt(F8::zero()) & r_dot_v.le(F8::one());
+            spec = F8::select(fast, pow_unit(r_dot_v, shininess) * ks, F8::zero());
+            for k in (0..LANES).filter(|&k| wants.and_not(fast).lane(k)) {
+                spec[k] = r_dot_v[k].powf(shininess[k]) * ks[k];
+            }
+        }
+        let term = radiance * (albedo.scale(kd * cos_l) + V8::new(spec, spec, spec));
+        c = V8::select(seen, c + term, c);
+    }
+    // A material index the scene does not have shows the albedo (as `phong` does).
+    let c = V8::select(known, c, albedo);
+    for k in (0..n).filter(|k| surface >> k & 1 == 1) {
+        out[k] = c.lane(k);
+    }
 }
 
 /// Phong as the Whitted mode computes it, without shadow rays: `K_a I_a + Σ lights (K_d I

@@ -527,3 +527,70 @@ fn a_sampled_mesh_renders_without_holes_by_default() {
     assert!(inside > 1000, "{inside}");
     assert!(holes * 1000 <= inside, "{holes} of {inside} pixels inside the outline are empty");
 }
+
+/// Phong in lanes (AVX2 and SSE) against the pixel-by-pixel oracle, with every light kind and
+/// spot curve, the sky's irradiance as ambient light, two materials (one with a specular
+/// power above 1 and one below) and a material index the scene lacks.
+#[test]
+fn phong_in_lanes_matches_the_scalar_shading() {
+    use glint_scene::{Attenuation, SpotFalloff};
+    let mut cloud = random_cloud(60_000, 9, true);
+    let mut scene = scene_of(vec![random_cloud(60_000, 8, false), plane(6.0, 3.0, 0.05, 0.06, |_, _, _| true)]);
+    cloud.name = "third".into();
+    scene.clouds.push(CloudObject {
+        name: cloud.name.clone(),
+        cloud: Arc::new(cloud),
+        material: 7,
+        world_from_object: Affine3A::IDENTITY,
+    });
+    scene.clouds[1].material = 1;
+    scene.materials.push(Material {
+        specular: 0.7,
+        shininess: 0.5,
+        emission: Rgb::new(0.01, 0.0, 0.02),
+        ..Material::default()
+    });
+    scene.sky_ambient = true;
+    let spot = |falloff, x: f32| Light::Spot {
+        position: Vec3::new(x, 2.0, 0.0),
+        direction: Vec3::new(0.0, -0.3, -1.0).normalize(),
+        inner_deg: 10.0,
+        outer_deg: 35.0,
+        colour: Rgb::new(1.0, 0.8, 0.6),
+        intensity: 2.0,
+        attenuation: Attenuation::InverseSquare,
+        falloff,
+        projection: None,
+    };
+    scene.lights.extend([
+        Light::Point {
+            position: Vec3::new(-2.0, 1.0, -1.0),
+            colour: Rgb::ONE,
+            intensity: 3.0,
+            attenuation: Attenuation::InverseSquare,
+        },
+        spot(SpotFalloff::Smoothstep, -1.0),
+        spot(SpotFalloff::LinearAngle, 0.0),
+        spot(SpotFalloff::SquaredCosine, 1.0),
+    ]);
+    let sh = scene.sky.irradiance_sh();
+    let (mut frame, _) = render(&scene, 211, Fill::Ellipses);
+    assert!(frame.material.contains(&7) && frame.material.contains(&1), "every material on screen");
+    let view = View::new(&scene.camera, frame.width, frame.height);
+    let mut shaded = |kernel| {
+        shade::shade_with(&scene, &view, Some(&sh), PointShading::Phong, 1.0, &mut frame, kernel);
+        frame.colour.clone()
+    };
+    let (scalar, best, baseline) =
+        (shaded(shade::Kernel::Scalar), shaded(shade::Kernel::Best), shaded(shade::Kernel::Baseline));
+    let bits = |c: &[Rgb]| c.iter().flat_map(|c| c.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+    assert!(bits(&best) == bits(&baseline), "the AVX2 and SSE lanes differ");
+    let mut exact = 0;
+    for (a, b) in scalar.iter().zip(&best) {
+        let err = (*a - *b).abs().max_element();
+        assert!(err <= 1e-4 * a.max_element().max(1.0), "{a} vs {b}");
+        exact += usize::from(a == b);
+    }
+    // Only the specular power differs (a polynomial for powf): most pixels are bit-identical.
+    assert!(exact * 2 > scalar.len(), "{exact} of {} pixels identical", scalar.len());
+}

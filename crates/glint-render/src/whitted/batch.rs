@@ -14,7 +14,7 @@
 //! order differs (depth by depth instead of the scalar stack's), and the Phong power is a
 //! polynomial: the pictures agree to well below one 8-bit step (tested on every scene).
 
-use super::shade8::{LightLanes, MaterialTable, Shading, shade, sky8};
+use super::shade8::{MaterialTable, Shading, ShadowLight, shade, sky8};
 use super::{PixelAccumulator, Samples};
 use crate::film::{FilmPixel, MAX_SAMPLE_RADIANCE};
 use crate::settings::{ImageSettings, WhittedSettings};
@@ -222,7 +222,7 @@ impl<'a> Frame<'a> {
             shading: Shading {
                 world,
                 materials: MaterialTable::new(&scene.materials),
-                lights: scene.lights.iter().map(|l| LightLanes::new(l, world)).collect(),
+                lights: scene.lights.iter().map(|l| ShadowLight::new(l, world)).collect(),
                 max_depth: settings.max_depth,
                 min_contribution: settings.min_contribution,
                 eye: rays.origin,

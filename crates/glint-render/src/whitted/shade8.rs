@@ -9,13 +9,13 @@
 //! contributions reach a sample in depth order instead of the scalar stack's order.
 
 use super::batch::{Lanes, Stream, TileSums};
+use crate::lights8::LightLanes;
 use crate::world::{PointCones, World};
 use glint_accel::batch::RayOrigins8;
 use glint_accel::batch::Rays8;
 use glint_accel::lanes::{F8, Isa, LANES, M8, U8x, V8, pow_unit};
 use glint_core::{Rgb, Vec3};
-use glint_scene::light::{spot_falloff_gltf, spot_falloff_linear};
-use glint_scene::{Attenuation, Light, Material, Sky, SpotFalloff, Texture};
+use glint_scene::{Light, Material, Sky, Texture};
 
 use crate::world::Surfaces8;
 
@@ -127,123 +127,17 @@ fn gather3<I: Isa>(v: &[Vec3], index: U8x<I>, first: usize, shared: bool) -> V8<
     if shared { V8::splat(v[first]) } else { V8::from_fn(|i| v[index[i] as usize]) }
 }
 
-/// A light as the lanes read it: what `Light::sample_at` computes, with the spot cone's
-/// cosines worked out once.
-pub(super) struct LightLanes {
-    kind: LightKind,
-    position: Vec3,
-    /// Spot axis (unit), or a directional light's travel direction.
-    direction: Vec3,
-    colour: Vec3,
-    intensity: f32,
-    inverse_square: bool,
-    cos_inner: f32,
-    cos_outer: f32,
-    /// A spot's curve between its cones, and the cones in degrees (for the curves other than
-    /// smoothstep, worked out lane by lane by the scalar functions).
-    falloff: SpotFalloff,
-    inner_deg: f32,
-    outer_deg: f32,
+/// A light as the batched tracer reads it: its lanes, and the spheres its shadow rays can meet.
+pub(super) struct ShadowLight {
+    lanes: LightLanes,
     /// The sphere set seen from the light's position (point and spot lights): shadow
     /// packets skip the spheres none of their rays can cross.
     cones: Option<PointCones>,
 }
 
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum LightKind {
-    Point,
-    Directional,
-    Spot,
-}
-
-impl LightLanes {
+impl ShadowLight {
     pub(super) fn new(light: &Light, world: &World) -> Self {
-        let base = LightLanes {
-            kind: LightKind::Point,
-            position: Vec3::ZERO,
-            direction: Vec3::ZERO,
-            colour: Vec3::ZERO,
-            intensity: 0.0,
-            inverse_square: false,
-            cos_inner: 1.0,
-            cos_outer: 1.0,
-            falloff: SpotFalloff::Smoothstep,
-            inner_deg: 0.0,
-            outer_deg: 0.0,
-            cones: None,
-        };
-        match *light {
-            Light::Point { position, colour, intensity, attenuation } => LightLanes {
-                position,
-                colour,
-                intensity,
-                inverse_square: attenuation == Attenuation::InverseSquare,
-                cones: Some(world.point_cones(position)),
-                ..base
-            },
-            Light::Directional { direction, colour, intensity } => {
-                LightLanes { kind: LightKind::Directional, direction, colour, intensity, ..base }
-            }
-            Light::Spot {
-                position, direction, inner_deg, outer_deg, colour, intensity, attenuation, falloff, ..
-            } => LightLanes {
-                kind: LightKind::Spot,
-                position,
-                direction,
-                colour,
-                intensity,
-                inverse_square: attenuation == Attenuation::InverseSquare,
-                cos_inner: inner_deg.to_radians().cos(),
-                cos_outer: outer_deg.to_radians().cos(),
-                falloff,
-                inner_deg,
-                outer_deg,
-                cones: Some(world.point_cones(position)),
-            },
-        }
-    }
-
-    /// `Light::sample_at` of eight points: the unit direction toward the light, the distance
-    /// (∞ for a directional light), the radiance, and the lanes the light reaches.
-    #[inline(always)]
-    fn sample<I: Isa>(&self, p: V8<I>) -> (V8<I>, F8<I>, V8<I>, M8<I>) {
-        if self.kind == LightKind::Directional {
-            let radiance = V8::splat(self.colour * self.intensity);
-            return (V8::splat(-self.direction), F8::splat(f32::INFINITY), radiance, M8::all());
-        }
-        let d = V8::splat(self.position) - p;
-        let dist = d.dot(d).sqrt();
-        let reaches = dist.gt(F8::zero());
-        let wi = V8::new(d.x / dist, d.y / dist, d.z / dist);
-        let mut fall = if self.inverse_square { F8::one() / (dist * dist) } else { F8::one() };
-        let mut lit = reaches;
-        if self.kind == LightKind::Spot {
-            let cos = (-wi).dot(V8::splat(self.direction));
-            let cone = match self.falloff {
-                SpotFalloff::Smoothstep => {
-                    let (ci, co) = (self.cos_inner, self.cos_outer);
-                    let x = (cos - F8::splat(co)) / F8::splat(ci - co);
-                    let smooth = x * x * (F8::splat(3.0) - F8::splat(2.0) * x);
-                    if ci <= co {
-                        F8::select(cos.ge(F8::splat(ci)), F8::one(), F8::zero())
-                    } else {
-                        let outside = F8::select(cos.le(F8::splat(co)), F8::zero(), smooth);
-                        F8::select(cos.ge(F8::splat(ci)), F8::one(), outside)
-                    }
-                }
-                // The imported scenes' curves (an arccosine, a clamp): rare, and exact lane by lane.
-                SpotFalloff::LinearAngle => {
-                    F8::from_fn(|i| spot_falloff_linear(cos[i], self.inner_deg, self.outer_deg))
-                }
-                SpotFalloff::SquaredCosine => {
-                    F8::from_fn(|i| spot_falloff_gltf(cos[i], self.inner_deg, self.outer_deg))
-                }
-            };
-            lit = lit & cone.gt(F8::zero());
-            fall *= cone;
-        }
-        let scale = F8::splat(self.intensity) * fall;
-        (wi, dist, V8::splat(self.colour).scale(scale), lit)
+        Self { lanes: LightLanes::new(light), cones: light.position().map(|p| world.point_cones(p)) }
     }
 }
 
@@ -251,7 +145,7 @@ impl LightLanes {
 pub(super) struct Shading<'a> {
     pub world: &'a World,
     pub materials: MaterialTable,
-    pub lights: Vec<LightLanes>,
+    pub lights: Vec<ShadowLight>,
     pub max_depth: u32,
     pub min_contribution: f32,
     /// The camera, for the depth AOV.
@@ -481,7 +375,7 @@ fn local<I: Isa>(
     let mut c = V8::select(front, m.emission, V8::zero()) + (ambient * albedo).scale(m.ambient);
     let mut shadows = 0;
     for light in &s.lights {
-        let (wi, distance, radiance, lit) = light.sample(surf.position);
+        let (wi, distance, radiance, lit) = light.lanes.sample(surf.position);
         let cos_l = ns.dot(wi);
         // Lights below the geometric surface are not seen, whatever the shading normal says.
         let seen = lanes & lit & cos_l.gt(F8::zero()) & ng.dot(wi).gt(F8::zero());
