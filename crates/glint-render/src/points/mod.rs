@@ -13,6 +13,7 @@
 //! winning point when needed (by the pull into level 1 and by the final push), so the finest
 //! level is never copied.
 
+mod gather;
 mod prepared;
 mod project;
 mod pyramid;
@@ -21,6 +22,7 @@ mod shade;
 mod tests;
 mod view;
 
+use gather::Winner;
 pub use prepared::MAX_POINTS;
 use prepared::PreparedPoints;
 #[cfg(test)]
@@ -38,7 +40,7 @@ use project::EMPTY;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
-use view::{CloudView, cloud_for, cloud_views};
+use view::{CloudView, cloud_views};
 
 /// Most pixels the points mode draws: its per-pixel buffers (depth word, gathered attributes,
 /// level-0 texel, pyramid, G-buffer, film) come to about 250 bytes a pixel, 8 GB here.
@@ -227,7 +229,7 @@ impl PassBytes {
         use std::mem::size_of;
         let px = f64::from(width) * f64::from(height);
         let word = size_of::<AtomicU64>() as f64;
-        let gathered = size_of::<(u32, prepared::PointAttributes)>() as f64;
+        let gathered = size_of::<Winner>() as f64;
         let texel = size_of::<Texel>() as f64;
         let level1 = texel * px / 4.0;
         let gbuffer = (size_of::<f32>() + size_of::<Vec3>() + size_of::<Rgb>() + size_of::<u32>()) as f64;
@@ -247,9 +249,10 @@ impl PassBytes {
 pub struct PointRenderer {
     points: PreparedPoints,
     depth: Vec<AtomicU64>,
-    /// The winning point's normal code and attributes per pixel, gathered in one tight pass
-    /// (many cache misses in flight at once) before anything computes with them.
-    gathered: Vec<(u32, prepared::PointAttributes)>,
+    /// What the pyramid needs of the point that won each pixel, made once per frame by one
+    /// tight pass in image order (many cache misses in flight at once) and read by the pull
+    /// into level 1 and by the final push.
+    gathered: Vec<Winner>,
     levels: Vec<pyramid::Level>,
     sky_irradiance: Option<IrradianceSh>,
     every_cloud_has_normals: bool,
@@ -360,8 +363,7 @@ impl PointRenderer {
         } else {
             self.depth.par_chunks(1 << 14).for_each(|c| c.iter().for_each(|d| d.store(EMPTY, Ordering::Relaxed)));
         }
-        let empty = prepared::PointAttributes { radius: 0.0, colour: 0 };
-        first_touch::resize(&mut self.gathered, n, (0, empty));
+        first_touch::resize(&mut self.gathered, n, Winner::NONE);
         self.levels.resize_with(count.max(self.levels.len()), pyramid::Level::default);
         let (mut w, mut h) = (width, height);
         for level in self.levels.iter_mut().take(count) {
@@ -381,61 +383,40 @@ impl PointRenderer {
         self.depth[y as usize * view.width as usize + x as usize].load(Ordering::Relaxed)
     }
 
-    /// Level-0 texel of pixel (x, y), whose depth word is `word`: the point that won it, or
-    /// invalid.
+    /// Level-0 texel of pixel (x, y), whose depth word is `word`: the point that won it
+    /// (gathered by [`Self::gather`]), or invalid.
     #[inline]
-    fn level0(&self, view: &View, clouds: &[CloudView], x: i64, y: i64, word: u64) -> Texel {
+    fn level0(&self, view: &View, x: i64, y: i64, word: u64) -> Texel {
         if word == EMPTY {
             return Texel::INVALID;
         }
-        let (z, index) = project::unpack(word);
-        let cv = cloud_for(clouds, index);
-        let (code, attributes) = self.gathered[y as usize * view.width as usize + x as usize];
-        let r = attributes.radius * cv.radius_scale;
-        let ray = view.camera_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
-        let mut normal = if cv.has_normals {
-            (cv.camera_normal_from_object * prepared::decode_octahedral_direction(code)).normalize_or(Vec3::NEG_Z)
-        } else {
-            -ray.normalize()
-        };
-        // Face the camera: unoriented normals have no reliable sign, and a two-sided cloud
-        // shows its back faces lit like its front.
-        if normal.dot(ray) > 0.0 {
-            normal = -normal;
-        }
+        let (z, _) = project::unpack(word);
+        let w = &self.gathered[y as usize * view.width as usize + x as usize];
         Texel {
             z_min: z,
-            z_max: z + r,
+            z_max: z + w.radius,
             depth: z,
-            normal,
-            radius: r * view.focal / z,
-            colour: prepared::decode_colour(attributes.colour),
+            normal: Vec3::from_array(w.normal),
+            radius: w.radius * view.focal / z,
+            colour: prepared::decode_colour(w.colour),
             displacement: Vec2::ZERO,
-            material: cv.material,
+            material: w.material,
         }
     }
 
-    /// Copy each winning point's normal code and attributes next to its pixel.
-    fn gather(&mut self, width: usize) {
+    /// Make each covered pixel's [`Winner`] (`gather.rs`).
+    fn gather(&mut self, view: &View, clouds: &[CloudView]) {
         let mut gathered = std::mem::take(&mut self.gathered);
-        let empty = prepared::PointAttributes { radius: 0.0, colour: 0 };
-        first_touch::resize(&mut gathered, self.depth.len(), (0, empty));
-        let (depth, points) = (&self.depth, &self.points);
-        gathered.par_chunks_mut(width).zip(depth.par_chunks(width)).with_min_len(8).for_each(|(out, words)| {
-            for (g, w) in out.iter_mut().zip(words) {
-                let word = w.load(Ordering::Relaxed);
-                if word != EMPTY {
-                    let i = word as u32 as usize;
-                    *g = (points.stream[i].normal, points.attributes[i]);
-                }
-            }
-        });
+        first_touch::resize(&mut gathered, self.depth.len(), Winner::NONE);
+        gather::gather(&self.points, clouds, view, &self.depth, &mut gathered, false);
         self.gathered = gathered;
     }
 
     /// Pull-push (per `fill`) down to the G-buffer in `frame`.
     fn reconstruct(&mut self, view: &View, clouds: &[CloudView], fill: Fill, frame: &mut PointFrame) {
-        self.gather(view.width as usize);
+        let t0 = Instant::now();
+        self.gather(view, clouds);
+        let t1 = Instant::now();
         let pyramid = matches!(fill, Fill::PullPush | Fill::Ellipses);
         let ellipses = fill == Fill::Ellipses;
         let count = if pyramid { pyramid::level_count(view.width, view.height) } else { 0 };
@@ -449,17 +430,21 @@ impl PointRenderer {
             h = h.div_ceil(2);
             level.resize(w, h);
         }
+        let (mut t2, mut t3, mut t4) = (Instant::now(), Instant::now(), Instant::now());
         if count > 0 {
-            self.pull_from_depth(view, clouds, &mut levels[0]);
+            self.pull_from_depth(view, &mut levels[0]);
+            t2 = Instant::now();
             for k in 1..count {
                 let (fine, coarse) = levels.split_at_mut(k);
                 let fine = &fine[k - 1];
                 pyramid::pull_level(|x, y| fine.at(x, y), &mut coarse[0]);
             }
+            t3 = Instant::now();
             for k in (1..count).rev() {
                 let (fine, coarse) = levels.split_at_mut(k);
                 pyramid::push_level(&coarse[0], &mut fine[k - 1], ellipses);
             }
+            t4 = Instant::now();
         }
         let width = view.width as usize;
         let level1 = levels.first();
@@ -485,10 +470,10 @@ impl PointRenderer {
                             // Level 0 again, from the gathered attributes in image order: cheaper
                             // than keeping a frame of texels from the pull (60 bytes a pixel,
                             // whose first touch cost a single frame ~40 ms at 1024²).
-                            let own = this.level0(view, clouds, x as i64, y as i64, word);
+                            let own = this.level0(view, x as i64, y as i64, word);
                             rows.push(x as i64, y as i64, &own, ellipses).unwrap_or(own)
                         }
-                        (None, word) => this.level0(view, clouds, x as i64, y as i64, word),
+                        (None, word) => this.level0(view, x as i64, y as i64, word),
                     };
                     if t.is_valid() {
                         depth[x] = t.depth;
@@ -504,12 +489,24 @@ impl PointRenderer {
                 }
             });
         self.levels = levels;
+        let t5 = Instant::now();
+        if std::env::var_os("GLINT_PP_TIMES").is_some() {
+            let ms = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e3;
+            eprintln!(
+                "pp gather {:.2} pull1 {:.2} pulln {:.2} push {:.2} final {:.2}",
+                ms(t0, t1),
+                ms(t1, t2),
+                ms(t2, t3),
+                ms(t3, t4),
+                ms(t4, t5)
+            );
+        }
     }
 
     /// Pull level 1 straight from the depth buffer: 2×2 blocks without a point (most of them,
     /// in most images) cost four loads. The level-0 texels made on the way are not kept: the
     /// final push makes them again where it needs them.
-    fn pull_from_depth(&self, view: &View, clouds: &[CloudView], coarse: &mut pyramid::Level) {
+    fn pull_from_depth(&self, view: &View, coarse: &mut pyramid::Level) {
         let cw = coarse.width as usize;
         const OFFSETS: [Vec2; 4] =
             [Vec2::new(-0.5, -0.5), Vec2::new(0.5, -0.5), Vec2::new(-0.5, 0.5), Vec2::new(0.5, 0.5)];
@@ -530,7 +527,7 @@ impl PointRenderer {
                 let mut children = [(Texel::INVALID, Vec2::ZERO); 4];
                 for (k, child) in children.iter_mut().enumerate() {
                     let (x, y) = (fx + (k & 1) as i64, fy + (k >> 1) as i64);
-                    *child = (self.level0(view, clouds, x, y, words[k]), OFFSETS[k]);
+                    *child = (self.level0(view, x, y, words[k]), OFFSETS[k]);
                 }
                 *out = pyramid::pull_texel(children);
             }

@@ -594,3 +594,53 @@ fn phong_in_lanes_matches_the_scalar_shading() {
     // Only the specular power differs (a polynomial for powf): most pixels are bit-identical.
     assert!(exact * 2 > scalar.len(), "{exact} of {} pixels identical", scalar.len());
 }
+
+/// The gather in lanes (AVX2 and SSE) gives [`gather::Winner::new`]'s bits for every covered
+/// pixel: two clouds sharing pixel runs (one with normals, some of them zero; one without), and
+/// a cloud scaled by its transform.
+#[test]
+fn the_gather_in_lanes_equals_the_scalar_winners() {
+    let mut with_normals = random_cloud(40_000, 3, false);
+    if let Some(n) = with_normals.normals.as_mut() {
+        n.iter_mut().step_by(7).for_each(|n| *n = Vec3::ZERO);
+    }
+    let mut without = random_cloud(40_000, 4, false);
+    without.normals = None;
+    let mut scene = scene_of(vec![with_normals, without, plane(6.0, 3.0, 0.05, 0.06, |_, _, _| true)]);
+    scene.clouds[2].world_from_object = Affine3A::from_scale(Vec3::splat(1.5));
+    scene.clouds[1].material = 3;
+    let (_, r) = render(&scene, 173, Fill::Ellipses);
+    let view = View::new(&scene.camera, 173, 173);
+    let clouds = cloud_views(&r.points, &view, true);
+    let gathered = |baseline| {
+        let mut out = vec![gather::Winner::NONE; r.depth.len()];
+        gather::gather(&r.points, &clouds, &view, &r.depth, &mut out, baseline);
+        out
+    };
+    let (best, baseline) = (gathered(false), gathered(true));
+    let mut covered = 0;
+    for (i, word) in r.depth.iter().enumerate() {
+        let word = word.load(std::sync::atomic::Ordering::Relaxed);
+        if word == EMPTY {
+            assert_eq!(best[i], gather::Winner::NONE);
+            continue;
+        }
+        covered += 1;
+        let p = word as u32 as usize;
+        let cv = view::cloud_for(&clouds, p as u32);
+        let (x, y) = (i % 173, i / 173);
+        let want = gather::Winner::new(&view, cv, x, y, r.points.stream[p].normal, r.points.attributes[p]);
+        let bits = |w: &gather::Winner| (w.normal.map(f32::to_bits), w.radius.to_bits(), w.colour, w.material);
+        assert_eq!(bits(&best[i]), bits(&want), "pixel ({x}, {y})");
+        assert_eq!(bits(&baseline[i]), bits(&want), "pixel ({x}, {y}), SSE lanes");
+    }
+    let zero_codes = r
+        .depth
+        .iter()
+        .filter(|w| {
+            let w = w.load(std::sync::atomic::Ordering::Relaxed);
+            w != EMPTY && (w as u32) < clouds[0].end && r.points.stream[w as u32 as usize].normal == 0
+        })
+        .count();
+    assert!(covered > 10_000 && zero_codes > 100, "{covered} covered, {zero_codes} without a normal");
+}
