@@ -414,9 +414,7 @@ impl PointRenderer {
 
     /// Pull-push (per `fill`) down to the G-buffer in `frame`.
     fn reconstruct(&mut self, view: &View, clouds: &[CloudView], fill: Fill, frame: &mut PointFrame) {
-        let t0 = Instant::now();
         self.gather(view, clouds);
-        let t1 = Instant::now();
         let pyramid = matches!(fill, Fill::PullPush | Fill::Ellipses);
         let ellipses = fill == Fill::Ellipses;
         let count = if pyramid { pyramid::level_count(view.width, view.height) } else { 0 };
@@ -430,21 +428,17 @@ impl PointRenderer {
             h = h.div_ceil(2);
             level.resize(w, h);
         }
-        let (mut t2, mut t3, mut t4) = (Instant::now(), Instant::now(), Instant::now());
         if count > 0 {
             self.pull_from_depth(view, &mut levels[0]);
-            t2 = Instant::now();
             for k in 1..count {
                 let (fine, coarse) = levels.split_at_mut(k);
                 let fine = &fine[k - 1];
                 pyramid::pull_level(|x, y| fine.at(x, y), &mut coarse[0]);
             }
-            t3 = Instant::now();
             for k in (1..count).rev() {
                 let (fine, coarse) = levels.split_at_mut(k);
                 pyramid::push_level(&coarse[0], &mut fine[k - 1], ellipses);
             }
-            t4 = Instant::now();
         }
         let width = view.width as usize;
         let level1 = levels.first();
@@ -489,18 +483,6 @@ impl PointRenderer {
                 }
             });
         self.levels = levels;
-        let t5 = Instant::now();
-        if std::env::var_os("GLINT_PP_TIMES").is_some() {
-            let ms = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e3;
-            eprintln!(
-                "pp gather {:.2} pull1 {:.2} pulln {:.2} push {:.2} final {:.2}",
-                ms(t0, t1),
-                ms(t1, t2),
-                ms(t2, t3),
-                ms(t3, t4),
-                ms(t4, t5)
-            );
-        }
     }
 
     /// Pull level 1 straight from the depth buffer: 2×2 blocks without a point (most of them,
