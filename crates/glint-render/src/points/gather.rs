@@ -11,6 +11,7 @@
 
 use super::prepared::{self, PointAttributes, PreparedPoints};
 use super::project::EMPTY;
+use super::pyramid::Span;
 use super::view::{CloudView, View, cloud_for};
 use glint_accel::lanes::{F8, Isa, LANES, LaneKernel, M8, U8x, dispatch};
 use glint_core::{Vec2, Vec3};
@@ -60,18 +61,21 @@ impl Winner {
 const RUN: usize = 64;
 
 /// Fill `out[i]` for every pixel i whose depth word names a point (other pixels keep what they
-/// hold), row-parallel; `baseline` forces the SSE lanes (the test that both builds agree).
+/// hold), and `spans[y]` with where row y's covered pixels lie, row-parallel; `baseline` forces
+/// the SSE lanes (the test that both builds agree).
 pub(super) fn gather(
     points: &PreparedPoints,
     clouds: &[CloudView],
     view: &View,
     depth: &[AtomicU64],
     out: &mut [Winner],
+    spans: &mut [Span],
     baseline: bool,
 ) {
     let width = view.width as usize;
-    out.par_chunks_mut(width).zip(depth.par_chunks(width)).enumerate().with_min_len(8).for_each(|(y, (out, words))| {
-        dispatch(Row { points, clouds, view, y, words, out }, baseline);
+    let rows = out.par_chunks_mut(width).zip(depth.par_chunks(width)).zip(spans.par_iter_mut());
+    rows.enumerate().with_min_len(8).for_each(|(y, ((out, words), span))| {
+        *span = dispatch(Row { points, clouds, view, y, words, out }, baseline);
     });
 }
 
@@ -86,16 +90,17 @@ struct Row<'a> {
 }
 
 impl LaneKernel for Row<'_> {
-    type Output = ();
+    type Output = Span;
 
     #[inline(always)]
-    fn run<I: Isa>(self) {
-        gather_row::<I>(self);
+    fn run<I: Isa>(self) -> Span {
+        gather_row::<I>(self)
     }
 }
 
 #[inline(always)]
-fn gather_row<I: Isa>(Row { points, clouds, view, y, words, out }: Row<'_>) {
+fn gather_row<I: Isa>(Row { points, clouds, view, y, words, out }: Row<'_>) -> Span {
+    let mut span = Span::EMPTY;
     let mut word = [EMPTY; RUN];
     let mut code = [0u32; RUN];
     let mut attributes = [PointAttributes { radius: 0.0, colour: 0 }; RUN];
@@ -114,6 +119,8 @@ fn gather_row<I: Isa>(Row { points, clouds, view, y, words, out }: Row<'_>) {
             if covered == 0 {
                 continue;
             }
+            let first = (x0 + k0) as u32;
+            span = span.union(Span { lo: first + covered.trailing_zeros(), hi: first + 32 - covered.leading_zeros() });
             let first = word[k0 + covered.trailing_zeros() as usize] as u32;
             let cv = cloud_for(clouds, first);
             let one_cloud = clouds.len() == 1
@@ -139,6 +146,7 @@ fn gather_row<I: Isa>(Row { points, clouds, view, y, words, out }: Row<'_>) {
             }
         }
     }
+    span
 }
 
 /// [`Winner::new`]'s normal and radius for pixels x0..x0 + 8 of row y, all from cloud `cv`.

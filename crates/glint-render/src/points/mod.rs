@@ -253,6 +253,8 @@ pub struct PointRenderer {
     /// tight pass in image order (many cache misses in flight at once) and read by the pull
     /// into level 1 and by the final push.
     gathered: Vec<Winner>,
+    /// Per image row, where its covered pixels lie (made by the gather).
+    word_spans: Vec<pyramid::Span>,
     levels: Vec<pyramid::Level>,
     sky_irradiance: Option<IrradianceSh>,
     every_cloud_has_normals: bool,
@@ -270,6 +272,7 @@ impl PointRenderer {
             points,
             depth: Vec::new(),
             gathered: Vec::new(),
+            word_spans: Vec::new(),
             levels: Vec::new(),
             sky_irradiance: scene.sky_ambient.then(|| scene.sky.irradiance_sh()),
         })
@@ -408,7 +411,8 @@ impl PointRenderer {
     fn gather(&mut self, view: &View, clouds: &[CloudView]) {
         let mut gathered = std::mem::take(&mut self.gathered);
         first_touch::resize(&mut gathered, self.depth.len(), Winner::NONE);
-        gather::gather(&self.points, clouds, view, &self.depth, &mut gathered, false);
+        self.word_spans.resize(view.height as usize, pyramid::Span::EMPTY);
+        gather::gather(&self.points, clouds, view, &self.depth, &mut gathered, &mut self.word_spans, false);
         self.gathered = gathered;
     }
 
@@ -433,7 +437,7 @@ impl PointRenderer {
             for k in 1..count {
                 let (fine, coarse) = levels.split_at_mut(k);
                 let fine = &fine[k - 1];
-                pyramid::pull_level(|x, y| fine.at(x, y), &mut coarse[0]);
+                pyramid::pull_level(fine, &mut coarse[0]);
             }
             for k in (1..count).rev() {
                 let (fine, coarse) = levels.split_at_mut(k);
@@ -454,7 +458,19 @@ impl PointRenderer {
             .for_each(|(y, (((depth, normal), albedo), material))| {
                 let rows = level1.map(|l1| pyramid::CoarseRows::new(l1, y as i64));
                 let words = &this.depth[y * width..(y + 1) * width];
-                for x in 0..width {
+                // Outside the span nothing is covered or near a surface: no surface there.
+                let span = match &rows {
+                    Some(rows) => rows.span().to_fine(width as u32),
+                    None => this.word_spans[y],
+                };
+                let (lo, hi) = if span.is_empty() { (0, 0) } else { (span.lo as usize, span.hi as usize) };
+                for (a, b) in [(0, lo), (hi, width)] {
+                    depth[a..b].fill(f32::INFINITY);
+                    normal[a..b].fill(Vec3::ZERO);
+                    albedo[a..b].fill(Rgb::ZERO);
+                    material[a..b].fill(u32::MAX);
+                }
+                for x in lo..hi {
                     let word = words[x].load(Ordering::Relaxed);
                     let t = match (&rows, word) {
                         // Empty: only the interpolation can give it a surface.
@@ -490,11 +506,12 @@ impl PointRenderer {
     /// final push makes them again where it needs them.
     fn pull_from_depth(&self, view: &View, coarse: &mut pyramid::Level) {
         let cw = coarse.width as usize;
-        const OFFSETS: [Vec2; 4] =
-            [Vec2::new(-0.5, -0.5), Vec2::new(0.5, -0.5), Vec2::new(-0.5, 0.5), Vec2::new(0.5, 0.5)];
-        coarse.texels.par_chunks_mut(cw).enumerate().with_min_len(4).for_each(|(cy, row)| {
+        let word_span = |y: usize| self.word_spans.get(y).copied().unwrap_or(pyramid::Span::EMPTY);
+        let rows = coarse.texels.par_chunks_mut(cw).zip(coarse.spans.par_iter_mut());
+        rows.enumerate().with_min_len(4).for_each(|(cy, (row, span))| {
             let fy = 2 * cy as i64;
-            for (cx, out) in row.iter_mut().enumerate() {
+            let candidates = word_span(2 * cy).union(word_span(2 * cy + 1)).to_coarse();
+            pyramid::pull_row(row, span, candidates, |cx| {
                 let fx = 2 * cx as i64;
                 let words = [
                     self.word(view, fx, fy),
@@ -503,16 +520,13 @@ impl PointRenderer {
                     self.word(view, fx + 1, fy + 1),
                 ];
                 if words == [EMPTY; 4] {
-                    *out = Texel::INVALID;
-                    continue;
+                    return Texel::INVALID;
                 }
-                let mut children = [(Texel::INVALID, Vec2::ZERO); 4];
-                for (k, child) in children.iter_mut().enumerate() {
+                pyramid::pull_texel(std::array::from_fn(|k| {
                     let (x, y) = (fx + (k & 1) as i64, fy + (k >> 1) as i64);
-                    *child = (self.level0(view, x, y, words[k]), OFFSETS[k]);
-                }
-                *out = pyramid::pull_texel(children);
-            }
+                    (self.level0(view, x, y, words[k]), pyramid::CHILD_OFFSETS[k])
+                }))
+            });
         });
     }
 

@@ -61,12 +61,73 @@ impl Default for Texel {
     }
 }
 
+/// The texels x in `lo..hi` of a row: where its valid texels lie (every texel outside is
+/// invalid). Most rows of most images hold a surface in part of their width only, or none:
+/// the passes skip the rest of the row.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Span {
+    pub lo: u32,
+    pub hi: u32,
+}
+
+impl Span {
+    pub const EMPTY: Span = Span { lo: 0, hi: 0 };
+
+    #[inline]
+    pub fn is_empty(self) -> bool {
+        self.lo >= self.hi
+    }
+
+    /// The smallest span holding both.
+    #[inline]
+    pub fn union(self, o: Span) -> Span {
+        match (self.is_empty(), o.is_empty()) {
+            (true, _) => o,
+            (_, true) => self,
+            _ => Span { lo: self.lo.min(o.lo), hi: self.hi.max(o.hi) },
+        }
+    }
+
+    /// The fine texels (of a row `width` wide) whose four nearest coarse texels (the push's
+    /// 9/3/3/1 stencil: the parent x/2 and the one beside it, x/2 − 1 for even x and x/2 + 1
+    /// for odd x) include one of this coarse span: 2·lo − 1 (odd, beside lo) up to 2·hi (even,
+    /// beside hi − 1).
+    #[inline]
+    pub fn to_fine(self, width: u32) -> Span {
+        if self.is_empty() {
+            return Span::EMPTY;
+        }
+        Span { lo: (2 * self.lo).saturating_sub(1), hi: (2 * self.hi + 1).min(width) }
+    }
+
+    /// The coarse texels with a child in this fine span.
+    #[inline]
+    pub fn to_coarse(self) -> Span {
+        if self.is_empty() {
+            return Span::EMPTY;
+        }
+        Span { lo: self.lo / 2, hi: self.hi.div_ceil(2) }
+    }
+
+    /// The span of the valid texels among `row[range]` (`range` holding every valid one).
+    #[inline]
+    fn of_valid(row: &[Texel], range: Span) -> Span {
+        let r = &row[range.lo as usize..range.hi as usize];
+        match (r.iter().position(Texel::is_valid), r.iter().rposition(Texel::is_valid)) {
+            (Some(a), Some(b)) => Span { lo: range.lo + a as u32, hi: range.lo + b as u32 + 1 },
+            _ => Span::EMPTY,
+        }
+    }
+}
+
 /// One level of the pyramid.
 #[derive(Clone, Debug, Default)]
 pub struct Level {
     pub width: u32,
     pub height: u32,
     pub texels: Vec<Texel>,
+    /// Per row, where its valid texels lie.
+    pub spans: Vec<Span>,
 }
 
 impl Level {
@@ -74,6 +135,14 @@ impl Level {
         self.width = width;
         self.height = height;
         crate::first_touch::resize(&mut self.texels, width as usize * height as usize, Texel::INVALID);
+        self.spans.clear();
+        self.spans.resize(height as usize, Span::EMPTY);
+    }
+
+    /// The span of row `y`, empty outside the level.
+    #[inline]
+    pub fn span(&self, y: i64) -> Span {
+        if y < 0 { Span::EMPTY } else { self.spans.get(y as usize).copied().unwrap_or(Span::EMPTY) }
     }
 
     /// The texel at (x, y), or an invalid one outside the level.
@@ -128,22 +197,42 @@ pub fn pull_texel(children: [(Texel, Vec2); 4]) -> Texel {
     }
 }
 
-/// Build `coarse` (already sized `ceil(w/2) × ceil(h/2)`) from a fine level read through
-/// `fine(x, y)` (invalid outside), row-parallel.
-pub fn pull_level(fine: impl Fn(i64, i64) -> Texel + Sync, coarse: &mut Level) {
+/// The children's offsets from their coarse texel's centre, in fine pixels, in the order
+/// (x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1).
+pub const CHILD_OFFSETS: [Vec2; 4] =
+    [Vec2::new(-0.5, -0.5), Vec2::new(0.5, -0.5), Vec2::new(-0.5, 0.5), Vec2::new(0.5, 0.5)];
+
+/// Pull one coarse row: texels in `candidates` made by `make(cx)`, the others invalid; the
+/// row's span is that of what `make` gave valid.
+#[inline]
+pub fn pull_row(row: &mut [Texel], span: &mut Span, candidates: Span, make: impl Fn(usize) -> Texel) {
+    let c = Span { lo: candidates.lo.min(row.len() as u32), hi: candidates.hi.min(row.len() as u32) };
+    let (lo, hi) = if c.is_empty() { (0, 0) } else { (c.lo as usize, c.hi as usize) };
+    row[..lo].fill(Texel::INVALID);
+    row[hi..].fill(Texel::INVALID);
+    for (cx, out) in row[lo..hi].iter_mut().enumerate() {
+        *out = make(lo + cx);
+    }
+    *span = Span::of_valid(row, c);
+}
+
+/// Build `coarse` (already sized `ceil(w/2) × ceil(h/2)`) from `fine`, row-parallel, visiting
+/// only the texels whose children lie in the fine rows' spans.
+pub fn pull_level(fine: &Level, coarse: &mut Level) {
     let cw = coarse.width as usize;
-    const OFFSETS: [Vec2; 4] = [Vec2::new(-0.5, -0.5), Vec2::new(0.5, -0.5), Vec2::new(-0.5, 0.5), Vec2::new(0.5, 0.5)];
-    coarse.texels.par_chunks_mut(cw).enumerate().with_min_len(4).for_each(|(cy, row)| {
+    let rows = coarse.texels.par_chunks_mut(cw).zip(coarse.spans.par_iter_mut());
+    rows.enumerate().with_min_len(4).for_each(|(cy, (row, span))| {
         let fy = 2 * cy as i64;
-        for (cx, out) in row.iter_mut().enumerate() {
+        let candidates = fine.span(fy).union(fine.span(fy + 1)).to_coarse();
+        pull_row(row, span, candidates, |cx| {
             let fx = 2 * cx as i64;
-            *out = pull_texel([
-                (fine(fx, fy), OFFSETS[0]),
-                (fine(fx + 1, fy), OFFSETS[1]),
-                (fine(fx, fy + 1), OFFSETS[2]),
-                (fine(fx + 1, fy + 1), OFFSETS[3]),
-            ]);
-        }
+            pull_texel([
+                (fine.at(fx, fy), CHILD_OFFSETS[0]),
+                (fine.at(fx + 1, fy), CHILD_OFFSETS[1]),
+                (fine.at(fx, fy + 1), CHILD_OFFSETS[2]),
+                (fine.at(fx + 1, fy + 1), CHILD_OFFSETS[3]),
+            ])
+        });
     });
 }
 
@@ -177,6 +266,8 @@ pub struct CoarseRows<'a> {
     beside: Option<&'a [Texel]>,
     py: i64,
     ny: i64,
+    /// Where the valid texels of both rows lie.
+    span: Span,
 }
 
 impl<'a> CoarseRows<'a> {
@@ -189,7 +280,13 @@ impl<'a> CoarseRows<'a> {
             (r >= 0 && r < i64::from(coarse.height)).then(|| &coarse.texels[r as usize * w..(r as usize + 1) * w])
         };
         let parent = row(py).unwrap_or(&[]);
-        Self { parent, beside: row(ny), py, ny }
+        Self { parent, beside: row(ny), py, ny, span: coarse.span(py).union(coarse.span(ny)) }
+    }
+
+    /// Where the valid texels of the two coarse rows lie.
+    #[inline]
+    pub fn span(&self) -> Span {
+        self.span
     }
 
     /// The parent of fine texel x of this row.
@@ -298,16 +395,23 @@ pub fn interpolate(coarse: &Level, x: i64, y: i64, ellipses: bool) -> Option<Tex
     CoarseRows::new(coarse, y).interpolate(x, y, ellipses)
 }
 
-/// Push `coarse` into `fine` in place, row-parallel.
+/// Push `coarse` into `fine` in place, row-parallel, visiting only the fine texels that are
+/// valid or have a valid coarse texel near; the fine rows' spans grow to what the push filled.
 pub fn push_level(coarse: &Level, fine: &mut Level, ellipses: bool) {
     let fw = fine.width as usize;
-    fine.texels.par_chunks_mut(fw).enumerate().with_min_len(4).for_each(|(y, row)| {
+    let rows = fine.texels.par_chunks_mut(fw).zip(fine.spans.par_iter_mut());
+    rows.enumerate().with_min_len(4).for_each(|(y, (row, span))| {
         let rows = CoarseRows::new(coarse, y as i64);
-        for (x, t) in row.iter_mut().enumerate() {
+        let range = span.union(rows.span().to_fine(fw as u32));
+        if range.is_empty() {
+            return;
+        }
+        for (x, t) in row.iter_mut().enumerate().take(range.hi as usize).skip(range.lo as usize) {
             if let Some(new) = rows.push(x as i64, y as i64, t, ellipses) {
                 *t = new;
             }
         }
+        *span = Span::of_valid(row, range);
     });
 }
 

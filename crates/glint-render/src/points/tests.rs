@@ -289,6 +289,7 @@ fn renormalisation_matches_the_papers_example() {
             texel(Rgb::new(0.0, 1.0, 0.0)),
             texel(Rgb::new(0.0, 0.0, 1.0)),
         ],
+        ..Level::default()
     };
     let t = interpolate(&coarse, 1, 1, true).unwrap();
     let expect = Rgb::new(9.0, 3.0, 1.0) / 13.0;
@@ -303,7 +304,7 @@ fn renormalisation_matches_the_papers_example() {
     let t = interpolate(&small, 1, 1, false).unwrap();
     assert!((t.colour - expect).abs().max_element() < 1e-6);
     // Nothing valid: no contributor.
-    let empty = Level { width: 2, height: 2, texels: vec![Texel::INVALID; 4] };
+    let empty = Level { width: 2, height: 2, texels: vec![Texel::INVALID; 4], ..Level::default() };
     assert!(interpolate(&empty, 1, 1, true).is_none());
 }
 
@@ -614,7 +615,15 @@ fn the_gather_in_lanes_equals_the_scalar_winners() {
     let clouds = cloud_views(&r.points, &view, true);
     let gathered = |baseline| {
         let mut out = vec![gather::Winner::NONE; r.depth.len()];
-        gather::gather(&r.points, &clouds, &view, &r.depth, &mut out, baseline);
+        let mut spans = vec![pyramid::Span::EMPTY; 173];
+        gather::gather(&r.points, &clouds, &view, &r.depth, &mut out, &mut spans, baseline);
+        for (y, span) in spans.iter().enumerate() {
+            let covered = |x: usize| r.depth[y * 173 + x].load(std::sync::atomic::Ordering::Relaxed) != EMPTY;
+            let want = (0..173)
+                .filter(|&x| covered(x))
+                .fold(pyramid::Span::EMPTY, |s, x| s.union(pyramid::Span { lo: x as u32, hi: x as u32 + 1 }));
+            assert_eq!(*span, want, "row {y}'s span");
+        }
         out
     };
     let (best, baseline) = (gathered(false), gathered(true));
@@ -643,4 +652,69 @@ fn the_gather_in_lanes_equals_the_scalar_winners() {
         })
         .count();
     assert!(covered > 10_000 && zero_codes > 100, "{covered} covered, {zero_codes} without a normal");
+}
+
+/// The row spans only skip texels that stay invalid: pulling and pushing with each row's span
+/// gives the texels of visiting every texel (full-width spans), and every span is tight.
+#[test]
+fn spans_skip_only_texels_that_stay_invalid() {
+    use pyramid::{Span, pull_level, push_level};
+    let tight = |l: &Level, y: usize| {
+        let row = &l.texels[y * l.width as usize..(y + 1) * l.width as usize];
+        match (row.iter().position(Texel::is_valid), row.iter().rposition(Texel::is_valid)) {
+            (Some(a), Some(b)) => Span { lo: a as u32, hi: b as u32 + 1 },
+            _ => Span::EMPTY,
+        }
+    };
+    let full = |l: &Level| {
+        let mut l = l.clone();
+        l.spans.fill(Span { lo: 0, hi: l.width });
+        l
+    };
+    let (w, h) = (67u32, 45u32);
+    let mut fine = Level::default();
+    fine.resize(w, h);
+    // Two clusters of sparse texels (one touching the left edge), the rest empty.
+    for y in 0..h as usize {
+        for x in 0..w as usize {
+            let i = y * w as usize + x;
+            let inside = (x < 9 && (10..30).contains(&y)) || ((30..50).contains(&x) && (20..40).contains(&y));
+            if inside && hash01(i) < 0.35 {
+                let z = 2.0 + hash01(i + 7);
+                fine.texels[i] = Texel {
+                    z_min: z,
+                    z_max: z + 0.1,
+                    depth: z + 0.05,
+                    normal: Vec3::new(hash01(i + 1) - 0.5, hash01(i + 2) - 0.5, -1.0).normalize(),
+                    radius: 0.4 + hash01(i + 3),
+                    colour: Rgb::splat(hash01(i + 4)),
+                    displacement: Vec2::ZERO,
+                    material: 0,
+                };
+            }
+        }
+    }
+    for y in 0..h as usize {
+        fine.spans[y] = tight(&fine, y);
+    }
+    assert!(fine.spans.iter().filter(|s| s.is_empty()).count() > 10);
+    let mut coarse = Level::default();
+    coarse.resize(w.div_ceil(2), h.div_ceil(2));
+    let mut coarse_full = coarse.clone();
+    pull_level(&fine, &mut coarse);
+    pull_level(&full(&fine), &mut coarse_full);
+    assert!(coarse.texels == coarse_full.texels, "pull");
+    for y in 0..coarse.height as usize {
+        assert_eq!(coarse.spans[y], tight(&coarse, y), "coarse row {y}");
+    }
+    for ellipses in [false, true] {
+        let (mut pushed, mut pushed_full) = (fine.clone(), full(&fine));
+        push_level(&coarse, &mut pushed, ellipses);
+        push_level(&full(&coarse), &mut pushed_full, ellipses);
+        assert!(pushed.texels == pushed_full.texels, "push (ellipses {ellipses})");
+        assert!(pushed.texels != fine.texels, "the push filled something");
+        for y in 0..h as usize {
+            assert_eq!(pushed.spans[y], tight(&pushed, y), "fine row {y}");
+        }
+    }
 }
