@@ -324,7 +324,8 @@ impl PointRenderer {
             PointShading::Auto => PointShading::EyeDome,
             s => s,
         };
-        shade::shade(scene, &view, self.sky_irradiance.as_ref(), shading, settings.edl_strength, frame);
+        let sky = self.sky_irradiance.as_ref();
+        shade::shade(scene, &view, sky, shading, settings.edl_strength, frame, shade::Kernel::Best);
         let t_shade = Instant::now();
 
         let ms = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e3;

@@ -18,27 +18,17 @@ use rayon::prelude::*;
 /// its neighbours (a silhouette's far side) to black.
 const EDL_SCALE: f32 = 300.0 / (8.0 * std::f32::consts::LN_2);
 
-pub fn shade(
-    scene: &Scene,
-    view: &View,
-    sky_irradiance: Option<&IrradianceSh>,
-    shading: PointShading,
-    edl_strength: f32,
-    frame: &mut PointFrame,
-) {
-    shade_with(scene, view, sky_irradiance, shading, edl_strength, frame, Kernel::Best);
-}
-
 /// How Phong is computed: eight pixels at a time in the best lanes this CPU has, in the SSE
 /// lanes, or pixel by pixel (the oracle the tests hold the lanes to).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum Kernel {
+pub enum Kernel {
     Best,
     Baseline,
     Scalar,
 }
 
-pub(super) fn shade_with(
+/// Shade the G-buffer of `frame` into its colour plane.
+pub fn shade(
     scene: &Scene,
     view: &View,
     sky_irradiance: Option<&IrradianceSh>,

@@ -579,7 +579,7 @@ fn phong_in_lanes_matches_the_scalar_shading() {
     assert!(frame.material.contains(&7) && frame.material.contains(&1), "every material on screen");
     let view = View::new(&scene.camera, frame.width, frame.height);
     let mut shaded = |kernel| {
-        shade::shade_with(&scene, &view, Some(&sh), PointShading::Phong, 1.0, &mut frame, kernel);
+        shade::shade(&scene, &view, Some(&sh), PointShading::Phong, 1.0, &mut frame, kernel);
         frame.colour.clone()
     };
     let (scalar, best, baseline) =
