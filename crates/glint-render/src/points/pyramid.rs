@@ -334,16 +334,16 @@ impl<'a> CoarseRows<'a> {
         let (mut z_min, mut z_max, mut depth, mut radius) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
         let (mut normal, mut colour, mut centre) = (Vec3::ZERO, Rgb::ZERO, Vec2::ZERO);
         let mut material = u32::MAX;
+        // Without branches on the texels (which of the four contribute varies from pixel to
+        // pixel near a silhouette): a texel left out adds w = 0 times a zero texel, +0.0, which
+        // leaves every sum's bits as they are (no sum is ever −0.0: they start at +0.0).
+        const NONE: Texel = Texel { z_min: 0.0, z_max: 0.0, depth: 0.0, radius: 0.0, ..Texel::INVALID };
         for (t, cx, cy, w) in candidates {
-            let Some(t) = t else { continue };
-            if !t.is_valid() {
-                continue;
-            }
+            let t = t.unwrap_or(&Texel::INVALID);
             let c = Vec2::new(cx as f32 + 0.5, cy as f32 + 0.5) + t.displacement;
-            if ellipses && !ellipse_contains(t, c, q) {
-                continue;
-            }
-            if material == u32::MAX {
+            let include = t.is_valid() & (!ellipses | ellipse_contains(t, c, q));
+            let (t, w) = if include { (t, w) } else { (&NONE, 0.0) };
+            if include && material == u32::MAX {
                 material = t.material;
             }
             w_sum += w;

@@ -718,3 +718,92 @@ fn spans_skip_only_texels_that_stay_invalid() {
         }
     }
 }
+
+/// The push's interpolation (branch-free over its four texels) gives the bits of the plain
+/// loop that skips the texels left out, on a coarse level of random texels (a third invalid,
+/// normals with −0.0 components, displacements of either sign, ellipses that miss).
+#[test]
+fn interpolation_without_branches_equals_the_plain_loop() {
+    fn plain(coarse: &Level, x: i64, y: i64, ellipses: bool) -> Option<Texel> {
+        let (px, py) = (x >> 1, y >> 1);
+        let (nx, ny) = (if x & 1 == 1 { px + 1 } else { px - 1 }, if y & 1 == 1 { py + 1 } else { py - 1 });
+        let q = Vec2::new((x as f32 + 0.5) * 0.5, (y as f32 + 0.5) * 0.5);
+        let (mut w_sum, mut z_min, mut z_max, mut depth, mut radius) = (0.0f32, 0.0f32, 0.0f32, 0.0f32, 0.0f32);
+        let (mut normal, mut colour, mut centre, mut material) = (Vec3::ZERO, Rgb::ZERO, Vec2::ZERO, u32::MAX);
+        for (cx, cy, w) in [(px, py, 9.0f32), (nx, py, 3.0), (px, ny, 3.0), (nx, ny, 1.0)] {
+            let t = coarse.at(cx, cy);
+            if !t.is_valid() {
+                continue;
+            }
+            let c = Vec2::new(cx as f32 + 0.5, cy as f32 + 0.5) + t.displacement;
+            if ellipses && !ellipse_contains(&t, c, q) {
+                continue;
+            }
+            if material == u32::MAX {
+                material = t.material;
+            }
+            w_sum += w;
+            z_min += w * t.z_min;
+            z_max += w * t.z_max;
+            depth += w * t.depth;
+            normal += w * t.normal;
+            radius += w * t.radius;
+            colour += w * t.colour;
+            centre += w * c;
+        }
+        (w_sum != 0.0).then(|| {
+            let inv = 1.0 / w_sum;
+            Texel {
+                z_min: z_min * inv,
+                z_max: z_max * inv,
+                depth: depth * inv,
+                normal: normal.normalize_or(Vec3::NEG_Z),
+                radius: 2.0 * radius * inv,
+                colour: colour * inv,
+                displacement: 2.0 * centre * inv - Vec2::new(x as f32 + 0.5, y as f32 + 0.5),
+                material,
+            }
+        })
+    }
+    let (w, h) = (23u32, 17u32);
+    let mut coarse = Level::default();
+    coarse.resize(w, h);
+    for (i, t) in coarse.texels.iter_mut().enumerate() {
+        if hash01(i) < 0.33 {
+            continue;
+        }
+        let r = |k: usize| hash01(i * 16 + k);
+        let signed_zero = |v: f32| if v < 0.1 { -0.0 } else { v - 0.5 };
+        *t = Texel {
+            z_min: 1.0 + r(1),
+            z_max: 1.5 + r(2),
+            depth: 1.2 + r(3),
+            normal: Vec3::new(signed_zero(r(4)), signed_zero(r(5)), -0.2 - r(6)),
+            radius: 0.2 + 1.5 * r(7),
+            colour: Rgb::new(r(8), r(9), r(10)),
+            displacement: Vec2::new(r(11) - 0.5, signed_zero(r(12))),
+            material: (i % 3) as u32,
+        };
+    }
+    let bits = |t: Option<Texel>| {
+        t.map(|t| {
+            [t.z_min, t.z_max, t.depth, t.normal.x, t.normal.y, t.normal.z, t.radius, t.colour.x, t.colour.y]
+                .map(f32::to_bits)
+                .into_iter()
+                .chain([t.colour.z, t.displacement.x, t.displacement.y].map(f32::to_bits))
+                .chain([t.material])
+                .collect::<Vec<_>>()
+        })
+    };
+    let mut some = 0;
+    for ellipses in [false, true] {
+        for y in 0..2 * h as i64 {
+            for x in 0..2 * w as i64 {
+                let want = plain(&coarse, x, y, ellipses);
+                some += usize::from(want.is_some());
+                assert_eq!(bits(interpolate(&coarse, x, y, ellipses)), bits(want), "({x}, {y}), ellipses {ellipses}");
+            }
+        }
+    }
+    assert!(some > 1000, "{some}");
+}
