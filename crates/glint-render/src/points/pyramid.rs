@@ -160,6 +160,19 @@ impl Level {
 /// pixel centre at all, yet its own pixel shows it.
 const MIN_NZ: f32 = 0.1;
 
+/// What a child left out of [`pull_texel`]'s sums adds: zero to the sums, nothing to the
+/// interval (+∞ to its minimum, −∞ to its maximum).
+const LEFT_OUT: Texel = Texel {
+    z_min: f32::INFINITY,
+    z_max: f32::NEG_INFINITY,
+    depth: 0.0,
+    normal: Vec3::ZERO,
+    radius: 0.0,
+    colour: Rgb::ZERO,
+    displacement: Vec2::ZERO,
+    material: u32::MAX,
+};
+
 /// Pull (§3.2): the coarse texel made of the valid children (given with their offsets from the
 /// coarse texel's centre, in fine pixels) whose depth intervals meet the frontmost child's.
 #[inline]
@@ -172,16 +185,18 @@ pub fn pull_texel(children: [(Texel, Vec2); 4]) -> Texel {
     let (mut normal, mut radius, mut colour, mut displacement) = (Vec3::ZERO, 0.0, Rgb::ZERO, Vec2::ZERO);
     for (c, offset) in &children {
         // Valid and its interval meets the frontmost one's (whose z_min is the smallest).
-        if c.z_min <= front.z_max {
-            n += 1.0;
-            z_min = z_min.min(c.z_min);
-            z_max = z_max.max(c.z_max);
-            depth += c.depth;
-            normal += c.normal;
-            radius += c.radius;
-            colour += c.colour;
-            displacement += c.displacement + *offset;
-        }
+        // Without a branch (which children join varies near silhouettes): one left out adds
+        // +0.0 to each sum, which leaves its bits as they are (no sum is ever −0.0).
+        let joins = c.z_min <= front.z_max;
+        let (c, add) = if joins { (c, c.displacement + *offset) } else { (&LEFT_OUT, Vec2::ZERO) };
+        n += if joins { 1.0 } else { 0.0 };
+        z_min = z_min.min(c.z_min);
+        z_max = z_max.max(c.z_max);
+        depth += c.depth;
+        normal += c.normal;
+        radius += c.radius;
+        colour += c.colour;
+        displacement += add;
     }
     let inv = 1.0 / n;
     Texel {

@@ -807,3 +807,72 @@ fn interpolation_without_branches_equals_the_plain_loop() {
     }
     assert!(some > 1000, "{some}");
 }
+
+/// The pull's texel (branch-free over its children) gives the bits of the plain loop that
+/// skips the children whose interval misses the frontmost one's.
+#[test]
+fn pull_without_branches_equals_the_plain_loop() {
+    use pyramid::{CHILD_OFFSETS, pull_texel};
+    fn plain(children: [(Texel, Vec2); 4]) -> Texel {
+        let front = children.iter().fold(Texel::INVALID, |f, (c, _)| if c.z_min < f.z_min { *c } else { f });
+        if !front.is_valid() {
+            return Texel::INVALID;
+        }
+        let (mut n, mut z_min, mut z_max, mut depth) = (0.0f32, f32::INFINITY, f32::NEG_INFINITY, 0.0f32);
+        let (mut normal, mut radius, mut colour, mut displacement) = (Vec3::ZERO, 0.0, Rgb::ZERO, Vec2::ZERO);
+        for (c, offset) in &children {
+            if c.z_min <= front.z_max {
+                n += 1.0;
+                z_min = z_min.min(c.z_min);
+                z_max = z_max.max(c.z_max);
+                depth += c.depth;
+                normal += c.normal;
+                radius += c.radius;
+                colour += c.colour;
+                displacement += c.displacement + *offset;
+            }
+        }
+        let inv = 1.0 / n;
+        Texel {
+            z_min,
+            z_max,
+            depth: depth * inv,
+            normal: normal.normalize_or(front.normal),
+            radius: radius * inv * 0.5,
+            colour: colour * inv,
+            displacement: displacement * (inv * 0.5),
+            material: front.material,
+        }
+    }
+    let texel = |i: usize| {
+        if hash01(i) < 0.3 {
+            return Texel::INVALID;
+        }
+        let r = |k: usize| hash01(i * 16 + k);
+        let signed_zero = |v: f32| if v < 0.1 { -0.0 } else { v - 0.5 };
+        let z = 1.0 + 2.0 * r(1);
+        Texel {
+            z_min: z,
+            z_max: z + 0.5 * r(2),
+            depth: z + 0.1,
+            normal: Vec3::new(signed_zero(r(3)), signed_zero(r(4)), -0.5),
+            radius: r(5),
+            colour: Rgb::new(r(6), r(7), r(8)),
+            displacement: Vec2::new(signed_zero(r(9)), r(10) - 0.5),
+            material: i as u32 % 5,
+        }
+    };
+    let mut joined_some = 0;
+    for k in 0..4000 {
+        let children: [(Texel, Vec2); 4] = std::array::from_fn(|c| (texel(4 * k + c), CHILD_OFFSETS[c]));
+        let (a, b) = (pull_texel(children), plain(children));
+        let bits = |t: &Texel| {
+            let f = [t.z_min, t.z_max, t.depth, t.normal.x, t.normal.y, t.normal.z, t.radius];
+            let g = [t.colour.x, t.colour.y, t.colour.z, t.displacement.x, t.displacement.y];
+            (f.map(f32::to_bits), g.map(f32::to_bits), t.material)
+        };
+        assert_eq!(bits(&a), bits(&b), "children {k}");
+        joined_some += usize::from(a.is_valid());
+    }
+    assert!(joined_some > 3000, "{joined_some}");
+}
