@@ -488,7 +488,9 @@ impl PointRenderer {
                     };
                     if t.is_valid() {
                         depth[x] = t.depth;
-                        normal[x] = view.world_from_camera(t.normal).normalize_or(-view.forward);
+                        // A unit texel normal in the camera's orthonormal basis: unit to a few
+                        // ulps without normalising again (a square root and a division a pixel).
+                        normal[x] = view.world_from_camera(t.normal);
                         albedo[x] = t.colour;
                         material[x] = t.material;
                     } else {

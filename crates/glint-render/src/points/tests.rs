@@ -876,3 +876,22 @@ fn pull_without_branches_equals_the_plain_loop() {
     }
     assert!(joined_some > 3000, "{joined_some}");
 }
+
+/// The normal AOV is unit length without a final normalisation (the texel normals are unit
+/// and the camera's basis is orthonormal), under a tilted camera and a rotated, scaled cloud.
+#[test]
+fn world_normals_are_unit_without_normalising_again() {
+    let mut scene = scene_of(vec![random_cloud(50_000, 12, false), plane(6.0, 3.0, 0.05, 0.06, |_, _, _| true)]);
+    scene.clouds[1].world_from_object =
+        Affine3A::from_scale_rotation_translation(Vec3::splat(1.3), glint_core::Quat::from_rotation_y(0.4), Vec3::ZERO);
+    scene.camera.forward = Vec3::new(0.2, -0.1, -1.0).normalize();
+    let (frame, _) = render(&scene, 157, Fill::Ellipses);
+    let mut surface = 0;
+    for (n, d) in frame.normal.iter().zip(&frame.depth) {
+        if d.is_finite() {
+            surface += 1;
+            assert!((n.length() - 1.0).abs() < 1e-6, "|{n}| = {}", n.length());
+        }
+    }
+    assert!(surface > 5000, "{surface}");
+}
