@@ -119,10 +119,9 @@ fn gather_row<I: Isa>(Row { points, clouds, view, y, words, out }: Row<'_>) -> S
             if covered == 0 {
                 continue;
             }
-            let first = (x0 + k0) as u32;
-            span = span.union(Span { lo: first + covered.trailing_zeros(), hi: first + 32 - covered.leading_zeros() });
-            let first = word[k0 + covered.trailing_zeros() as usize] as u32;
-            let cv = cloud_for(clouds, first);
+            let x = (x0 + k0) as u32;
+            span = span.union(Span { lo: x + covered.trailing_zeros(), hi: x + 32 - covered.leading_zeros() });
+            let cv = cloud_for(clouds, word[k0 + covered.trailing_zeros() as usize] as u32);
             let one_cloud = clouds.len() == 1
                 || (0..out.len())
                     .all(|k| covered >> k & 1 == 0 || std::ptr::eq(cloud_for(clouds, word[k0 + k] as u32), cv));
