@@ -20,11 +20,17 @@ use crate::read::{MAX_SAMPLES, check_size};
 /// Writes every channel of `image` as 32-bit float under its own name, atomically (encoded in
 /// memory, then [`atomic_write`]). Byte-identical output for identical images.
 pub fn write_exr(path: &Path, image: &Image) -> Result<(), ImageError> {
+    write_exr_owned(path, image.clone())
+}
+
+/// [`write_exr`] of an image the caller gives up: its planes go to the encoder as they are,
+/// without a copy (a 1080p film with its AOVs: 91 MB).
+pub fn write_exr_owned(path: &Path, image: Image) -> Result<(), ImageError> {
     let bytes = encode_exr(image).map_err(|message| ImageError::encode(path, message))?;
     atomic_write(path, &bytes)
 }
 
-fn encode_exr(image: &Image) -> Result<Vec<u8>, String> {
+fn encode_exr(image: Image) -> Result<Vec<u8>, String> {
     image.validate().map_err(|e| e.to_string())?;
     if image.width == 0 || image.height == 0 {
         return Err(format!("an EXR cannot be {}x{}", image.width, image.height));
@@ -33,20 +39,17 @@ fn encode_exr(image: &Image) -> Result<Vec<u8>, String> {
         return Err("the image has no channels".to_string());
     }
     let mut channels = SmallVec::<[AnyChannel<FlatSamples>; 4]>::new();
-    for Channel { name, data } in &image.channels {
-        let text = Text::new_or_none(name)
+    let (width, height) = (image.width as usize, image.height as usize);
+    for Channel { name, data } in image.channels {
+        let text = Text::new_or_none(&name)
             .filter(|_| !name.is_empty())
             .ok_or_else(|| format!("channel name '{name}' is empty or not Latin-1"))?;
-        channels.push(AnyChannel::new(text, FlatSamples::F32(data.clone())));
+        channels.push(AnyChannel::new(text, FlatSamples::F32(data)));
     }
     let encoding =
         Encoding { compression: Compression::ZIP16, blocks: Blocks::ScanLines, line_order: LineOrder::Increasing };
-    let layer = exr::prelude::Layer::new(
-        (image.width as usize, image.height as usize),
-        LayerAttributes::default(),
-        encoding,
-        AnyChannels::sort(channels),
-    );
+    let layer =
+        exr::prelude::Layer::new((width, height), LayerAttributes::default(), encoding, AnyChannels::sort(channels));
     let mut out = Cursor::new(Vec::new());
     exr::prelude::Image::from_layer(layer).write().to_buffered(&mut out).map_err(|e| e.to_string())?;
     Ok(out.into_inner())
@@ -324,12 +327,12 @@ mod tests {
         write_exr(&b, &image).expect("b");
         let (a, b) = (std::fs::read(a).expect("a"), std::fs::read(b).expect("b"));
         assert!(a == b, "two writes of the same image differ");
-        assert_eq!(encode_exr(&image).expect("encode"), a);
+        assert_eq!(encode_exr(image.clone()).expect("encode"), a);
     }
 
     #[test]
     fn header_is_increasing_zip_f32() {
-        let bytes = encode_exr(&many_channels(3, 2)).expect("encode");
+        let bytes = encode_exr(many_channels(3, 2)).expect("encode");
         let meta = MetaData::read_from_buffered(Cursor::new(&bytes), true).expect("meta");
         assert_eq!(meta.headers.len(), 1);
         let header = &meta.headers[0];
@@ -354,7 +357,7 @@ mod tests {
 
     #[test]
     fn huge_header_is_rejected_before_allocating() {
-        let mut bytes = encode_exr(&many_channels(4, 4)).expect("encode");
+        let mut bytes = encode_exr(many_channels(4, 4)).expect("encode");
         // Patch the data window (box2i: xMin, yMin, xMax, yMax) to claim 10^6 x 10^6 pixels.
         let key = b"dataWindow\0box2i\0";
         let at = bytes.windows(key.len()).position(|w| w == key).expect("dataWindow attribute") + key.len() + 4;
@@ -407,7 +410,7 @@ mod tests {
 
     #[test]
     fn truncated_exr_is_a_decode_error() {
-        let bytes = encode_exr(&many_channels(30, 20)).expect("encode");
+        let bytes = encode_exr(many_channels(30, 20)).expect("encode");
         let dir = TestDir::new("exr-trunc");
         for cut in [3, 40, bytes.len() / 2, bytes.len() - 1] {
             let path = dir.join("cut.exr");

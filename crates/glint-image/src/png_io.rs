@@ -52,56 +52,95 @@ pub fn encode_srgb8(image: &Image, options: &PngOptions) -> Result<Vec<u8>, Imag
     } else {
         None
     };
-    let scale = options.exposure.exp2();
-    let channels = if alpha.is_some() { 4 } else { 3 };
-    let mut out = vec![0u8; image.pixel_count() * channels];
-    let planes = Planes { r, g, b, alpha };
-    match options.tone_map {
-        ToneMap::Clamp => encode_planes(tonemap::clamp, scale, &planes, &mut out),
-        ToneMap::Reinhard => encode_planes(tonemap::reinhard, scale, &planes, &mut out),
-        ToneMap::Aces => encode_planes(tonemap::aces, scale, &planes, &mut out),
-    }
-    Ok(out)
-}
-
-struct Planes<'a> {
-    r: &'a [f32],
-    g: &'a [f32],
-    b: &'a [f32],
-    alpha: Option<&'a [f32]>,
-}
-
-/// The encode loop, monomorphised per tone map. Works in blocks of 256 pixels, in parallel
-/// (each output byte depends on its pixel only, so the result is independent of threading):
-/// exposure + tone map over each plane's block (contiguous, branch-free, so it vectorises),
-/// then table lookups and interleaving.
-fn encode_planes(tone_map: impl Fn(f32) -> f32 + Sync, scale: f32, planes: &Planes<'_>, out: &mut [u8]) {
-    const BLOCK: usize = 256;
-    let lut = SrgbLut::get();
-    let channels = if planes.alpha.is_some() { 4 } else { 3 };
-    out.par_chunks_mut(BLOCK * channels).with_min_len(16).enumerate().for_each(|(block, pixels)| {
-        let mut toned = [[0.0f32; BLOCK]; 3];
-        let start = block * BLOCK;
-        let len = pixels.len() / channels;
-        for (dst, src) in toned.iter_mut().zip([planes.r, planes.g, planes.b]) {
-            for (t, &v) in dst[..len].iter_mut().zip(&src[start..start + len]) {
-                *t = tone_map(v * scale);
+    let planes = [r, g, b, alpha.unwrap_or(&[])];
+    Ok(encode_srgb8_blocks(image.pixel_count(), options, |start, block| {
+        let len = block.len();
+        for (dst, src) in block.planes.iter_mut().zip(planes) {
+            if let Some(src) = src.get(start..start + len) {
+                dst[..len].copy_from_slice(src);
             }
         }
-        let [tr, tg, tb] = &toned;
-        let toned = tr[..len].iter().zip(&tg[..len]).zip(&tb[..len]);
-        match planes.alpha {
-            None => {
-                let (pixels, _) = pixels.as_chunks_mut::<3>();
-                for (px, ((&r, &g), &b)) in pixels.iter_mut().zip(toned) {
-                    *px = [lut.encode(r), lut.encode(g), lut.encode(b)];
-                }
+    }))
+}
+
+/// Pixels per block of the 8-bit encoders ([`encode_srgb8_blocks`]).
+pub const ENCODE_BLOCK: usize = 256;
+
+/// One block of linear pixels for [`encode_srgb8_blocks`]: R, G, B and coverage (A) planes,
+/// the first [`LinearBlock::len`] values of each in use.
+pub struct LinearBlock {
+    pub planes: [[f32; ENCODE_BLOCK]; 4],
+    len: usize,
+}
+
+impl LinearBlock {
+    /// Pixels in this block (the last block of an image may be short).
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether the block holds no pixel (never, for a block handed to a `fill`).
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}
+
+/// Encodes `count` pixels as interleaved 8-bit sRGB (`RGB`, or `RGBA` with `options.alpha`),
+/// exactly as [`encode_srgb8`] does, reading them from `fill`: `fill(start, block)` writes the
+/// linear R, G, B (and, with alpha, the coverage) of pixels `start..start + block.len()` into
+/// the block's planes. Blocks are filled and encoded in parallel, each output byte from its
+/// own pixel only, so the result does not depend on threading. This lets a renderer encode
+/// its film where it lies, without a planar float copy of the image in between.
+pub fn encode_srgb8_blocks(
+    count: usize,
+    options: &PngOptions,
+    fill: impl Fn(usize, &mut LinearBlock) + Sync,
+) -> Vec<u8> {
+    let scale = options.exposure.exp2();
+    let channels = if options.alpha { 4 } else { 3 };
+    let mut out = vec![0u8; count * channels];
+    match options.tone_map {
+        ToneMap::Clamp => encode_blocks(tonemap::clamp, scale, options.alpha, &fill, &mut out),
+        ToneMap::Reinhard => encode_blocks(tonemap::reinhard, scale, options.alpha, &fill, &mut out),
+        ToneMap::Aces => encode_blocks(tonemap::aces, scale, options.alpha, &fill, &mut out),
+    }
+    out
+}
+
+/// The encode loop, monomorphised per tone map. Works in blocks of [`ENCODE_BLOCK`] pixels, in
+/// parallel: the block's planes are filled, exposure + tone map run over each colour plane
+/// (contiguous, branch-free, so it vectorises), then table lookups and interleaving.
+fn encode_blocks(
+    tone_map: impl Fn(f32) -> f32 + Sync,
+    scale: f32,
+    alpha: bool,
+    fill: &(impl Fn(usize, &mut LinearBlock) + Sync),
+    out: &mut [u8],
+) {
+    let lut = SrgbLut::get();
+    let channels = if alpha { 4 } else { 3 };
+    out.par_chunks_mut(ENCODE_BLOCK * channels).with_min_len(16).enumerate().for_each(|(block, pixels)| {
+        let len = pixels.len() / channels;
+        let mut buf = LinearBlock { planes: [[0.0; ENCODE_BLOCK]; 4], len };
+        fill(block * ENCODE_BLOCK, &mut buf);
+        let [mut tr, mut tg, mut tb, a] = buf.planes;
+        for plane in [&mut tr, &mut tg, &mut tb] {
+            for t in &mut plane[..len] {
+                *t = tone_map(*t * scale);
             }
-            Some(a) => {
-                let (pixels, _) = pixels.as_chunks_mut::<4>();
-                for ((px, ((&r, &g), &b)), &a) in pixels.iter_mut().zip(toned).zip(&a[start..start + len]) {
-                    *px = [lut.encode(r), lut.encode(g), lut.encode(b), alpha_u8(a)];
-                }
+        }
+        let toned = tr[..len].iter().zip(&tg[..len]).zip(&tb[..len]);
+        if alpha {
+            let (pixels, _) = pixels.as_chunks_mut::<4>();
+            for ((px, ((&r, &g), &b)), &a) in pixels.iter_mut().zip(toned).zip(&a[..len]) {
+                *px = [lut.encode(r), lut.encode(g), lut.encode(b), alpha_u8(a)];
+            }
+        } else {
+            let (pixels, _) = pixels.as_chunks_mut::<3>();
+            for (px, ((&r, &g), &b)) in pixels.iter_mut().zip(toned) {
+                *px = [lut.encode(r), lut.encode(g), lut.encode(b)];
             }
         }
     });
@@ -112,10 +151,28 @@ fn encode_planes(tone_map: impl Fn(f32) -> f32 + Sync, scale: f32, planes: &Plan
 /// gives the adaptive filter's size in about half the time (1080p: ≈ 20 ms, measured).
 pub fn write_png(path: &Path, image: &Image, options: &PngOptions) -> Result<(), ImageError> {
     let pixels = encode_srgb8(image, options)?;
-    let colour = if options.alpha { image::ExtendedColorType::Rgba8 } else { image::ExtendedColorType::Rgb8 };
+    write_png_srgb8(path, image.width, image.height, options.alpha, &pixels)
+}
+
+/// Writes pixels encoded by [`encode_srgb8`] or [`encode_srgb8_blocks`] (`RGBA` when `alpha`,
+/// else `RGB`; `width × height` of them) as a PNG, atomically, compressed as [`write_png`]
+/// does. A buffer of the wrong length is an encode error naming `path`.
+pub fn write_png_srgb8(path: &Path, width: u32, height: u32, alpha: bool, pixels: &[u8]) -> Result<(), ImageError> {
+    let channels: u64 = if alpha { 4 } else { 3 };
+    let expected = u64::from(width) * u64::from(height) * channels;
+    if pixels.len() as u64 != expected {
+        return Err(ImageError::encode(
+            path,
+            format!(
+                "{} bytes of pixels for a {width} x {height} image of {channels} channels ({expected} expected)",
+                pixels.len()
+            ),
+        ));
+    }
+    let colour = if alpha { image::ExtendedColorType::Rgba8 } else { image::ExtendedColorType::Rgb8 };
     let mut bytes = Vec::with_capacity(pixels.len() / 2 + 1024);
     PngEncoder::new_with_quality(&mut bytes, CompressionType::Fast, FilterType::Paeth)
-        .write_image(&pixels, image.width, image.height, colour)
+        .write_image(pixels, width, height, colour)
         .map_err(|e| ImageError::encode(path, e.to_string()))?;
     atomic_write(path, &bytes)
 }
@@ -359,6 +416,22 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn encoded_pixels_of_the_wrong_length_are_refused_and_nothing_is_written() {
+        let dir = TestDir::new("png-srgb8-length");
+        let path = dir.join("short.png");
+        std::fs::write(&path, b"keep").expect("seed");
+        for (alpha, len) in [(false, 3 * 4 * 2 - 1), (true, 3 * 4 * 2), (false, 0)] {
+            let err = write_png_srgb8(&path, 4, 2, alpha, &vec![7u8; len]).expect_err("wrong length");
+            assert!(err.to_string().contains("short.png"), "{err}");
+            assert!(err.to_string().contains("expected"), "{err}");
+        }
+        assert_eq!(std::fs::read(&path).expect("still there"), b"keep");
+        write_png_srgb8(&path, 4, 2, true, &[9u8; 32]).expect("right length");
+        let back = read_image(&path).expect("read");
+        assert_eq!((back.width, back.height, back.channel("A").is_some()), (4, 2, true));
     }
 
     #[test]

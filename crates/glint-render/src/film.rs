@@ -161,6 +161,25 @@ impl Film {
         planes_of(&self.pixels, self.width, self.height, &chans[..if alpha { 4 } else { 3 }])
     }
 
+    /// The beauty as interleaved 8-bit sRGB (`RGB`, or `RGBA` with `options.alpha`, alpha =
+    /// coverage), the bytes [`glint_image::encode_srgb8`] gives for
+    /// [`beauty_image`](Self::beauty_image), encoded straight from the film's pixels without
+    /// the planar float image in between (a 1080p PNG: 25 MB fewer bytes written and faulted in).
+    #[must_use]
+    pub fn encode_srgb8(&self, options: &glint_image::PngOptions) -> Vec<u8> {
+        glint_image::encode_srgb8_blocks(self.pixels.len(), options, |start, block| {
+            let len = block.len();
+            let Some(pixels) = self.pixels.get(start..start + len) else { return };
+            let [r, g, b, a] = &mut block.planes;
+            for (i, p) in pixels.iter().enumerate() {
+                r[i] = p.colour.x;
+                g[i] = p.colour.y;
+                b[i] = p.colour.z;
+                a[i] = p.coverage;
+            }
+        })
+    }
+
     /// Beauty and every AOV as named channels (EXR names: pbrt-v4's where it has them):
     /// R G B A, Albedo.R/G/B, Ns.X/Y/Z, Z, and in path mode Direct.R/G/B, Indirect.R/G/B,
     /// SampleCount, and without a filter Variance.R/G/B (docs/aovs.md).
@@ -226,4 +245,50 @@ fn planes_of<T: Sync>(records: &[T], width: u32, height: u32, chans: &[Reader<T>
         img.channels.push(glint_image::Channel { name: (*name).into(), data });
     }
     img
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Film, FilmPixel};
+    use glint_core::{Rgb, Vec3};
+    use glint_image::{PngOptions, ToneMap, encode_srgb8};
+
+    /// A film whose pixels run through dark, bright, negative, NaN and infinite values, with
+    /// partial coverage.
+    fn film(width: u32, height: u32) -> Film {
+        let mut film = Film::new(width, height);
+        for (i, p) in film.pixels.iter_mut().enumerate() {
+            let t = i as f32 * 0.37;
+            let odd = match i % 97 {
+                0 => f32::NAN,
+                1 => f32::INFINITY,
+                2 => -1.0,
+                _ => 0.0,
+            };
+            *p = FilmPixel {
+                colour: Rgb::new(t.sin().abs() * 3.0 + odd, (t * 0.1).fract(), 1e-5 * i as f32),
+                coverage: (i % 5) as f32 / 4.0,
+                normal: Vec3::Z,
+                ..FilmPixel::default()
+            };
+        }
+        film
+    }
+
+    #[test]
+    fn the_film_encodes_to_the_bytes_of_its_beauty_image() {
+        // 300 × 7 pixels: several encode blocks and a short last one.
+        for (w, h) in [(300, 7), (1, 1), (16, 16)] {
+            let film = film(w, h);
+            for tone_map in [ToneMap::Clamp, ToneMap::Reinhard, ToneMap::Aces] {
+                for alpha in [false, true] {
+                    for exposure in [0.0, 1.5, -2.0] {
+                        let options = PngOptions { exposure, tone_map, alpha };
+                        let want = encode_srgb8(&film.beauty_image(alpha), &options).expect("encode");
+                        assert_eq!(film.encode_srgb8(&options), want, "{w}x{h} {options:?}");
+                    }
+                }
+            }
+        }
+    }
 }

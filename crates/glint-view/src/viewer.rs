@@ -501,8 +501,14 @@ impl Viewer {
     pub fn screenshot(&mut self) -> Result<(PathBuf, PathBuf), ViewError> {
         let (png, exr) = next_free_names(&self.screenshot_dir)?;
         let film = self.renderer.film();
-        glint_image::write_png(&png, &film.beauty_image(false), &glint_image::PngOptions::default())
-            .map_err(|e| ViewError::Write(png.clone(), e.to_string()))?;
+        glint_image::write_png_srgb8(
+            &png,
+            film.width,
+            film.height,
+            false,
+            &film.encode_srgb8(&glint_image::PngOptions::default()),
+        )
+        .map_err(|e| ViewError::Write(png.clone(), e.to_string()))?;
         glint_image::write_exr(&exr, &film.aov_image()).map_err(|e| ViewError::Write(exr.clone(), e.to_string()))?;
         Ok((png, exr))
     }

@@ -607,19 +607,23 @@ pub fn write_film(
     summary: &str,
     quiet: bool,
 ) -> Result<()> {
-    // The planes of the output image (21 with the AOVs, 3 or 4 without) and the encoded bytes.
+    // In 4-byte planes: the EXR's 21 AOV planes and its encoded bytes; the PNG's 8-bit pixels
+    // (RGBA at most) and its encoded bytes.
     let channels: u64 = match kind {
-        OutputKind::Png => 4 + 1,
+        OutputKind::Png => 1 + 1,
         OutputKind::Exr => 21 + 21,
     };
     let pixels = u64::from(film.width) * u64::from(film.height);
     let what = || format!("the output image {} ({} x {})", output.display(), film.width, film.height);
     glint_core::memory::check(what, pixels.saturating_mul(channels * 4))?;
-    let image = match kind {
-        OutputKind::Png => film.beauty_image(options.alpha),
-        OutputKind::Exr => film.aov_image(),
+    let written = match kind {
+        OutputKind::Png => {
+            let pixels = film.encode_srgb8(options);
+            glint_image::write_png_srgb8(output, film.width, film.height, options.alpha, &pixels)
+        }
+        OutputKind::Exr => glint_image::write_exr_owned(output, film.aov_image()),
     };
-    glint_image::write_image(output, &image, options).with_context(|| format!("cannot write {}", output.display()))?;
+    written.with_context(|| format!("cannot write {}", output.display()))?;
     if !quiet {
         eprintln!("glint: {summary} -> {}", output.display());
     }
