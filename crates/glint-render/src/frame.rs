@@ -460,7 +460,11 @@ impl Renderer {
         let s = points.render(scene, camera, image, settings, &mut self.point_frame)?;
         let ms = |v: f64| Duration::from_secs_f64(v * 1e-3);
         let mut stats = FrameStats {
-            stages: vec![("project", ms(s.project_ms)), ("pull-push", ms(s.pull_push_ms)), ("shade", ms(s.shade_ms))],
+            stages: vec![
+                ("project", ms(s.project_ms)),
+                ("pull-push", ms(s.pull_push_ms)),
+                ("push+shade", ms(s.shade_ms)),
+            ],
             points: s.points,
             passes: 1,
             samples_per_pixel: 1,
@@ -484,7 +488,7 @@ impl Renderer {
         }
         if step == Step::Whole {
             stats.summary = format!(
-                "points {}x{} ({} points, fill {:?}) in {:.1} ms: project {:.1} ms, pull-push {:.1} ms, shade {:.1} ms ({:.0} M points/s; layout {:.0} ms, buffers {:.1} ms{traced})",
+                "points {}x{} ({} points, fill {:?}) in {:.1} ms: project {:.1} ms, pull-push {:.1} ms, push+shade {:.1} ms ({:.0} M points/s; layout {:.0} ms, buffers {:.1} ms{traced})",
                 image.width,
                 image.height,
                 s.points,

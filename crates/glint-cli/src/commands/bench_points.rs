@@ -2,7 +2,8 @@
 //!
 //! Each cloud is loaded, prepared (normals and radii estimated where the file has none), laid
 //! out once, then drawn `reps` times from its default view; the median frame is reported with
-//! its split into projection, pull-push and shading. A frame is validated before it is timed:
+//! its split into projection, pull-push (down to level 1) and the final push fused with the
+//! shading. A frame is validated before it is timed:
 //! it must cover some pixels and hold no NaN.
 
 use super::bench::median;
@@ -86,8 +87,8 @@ pub fn run(args: &BenchPointsArgs) -> Result<()> {
         out!("threads: {}, reps: {} (medians)", rayon::current_num_threads(), args.reps);
         let memory = super::stream::measure()?;
         out!("{}", memory.line());
-        out!("GB/s: the bytes each stage streams at the least (PassBytes: its frame-sized buffers read or written once) over its median, project / pull-push / shade");
-        out!("| cloud | points | image | fill | frame ms | fps | project ms | pull-push ms | shade ms | M points/s | projection M points/s | coverage | GB/s | of triad |");
+        out!("GB/s: the bytes each stage streams at the least (PassBytes: its frame-sized buffers read or written once) over its median, project / pull-push / push+shade");
+        out!("| cloud | points | image | fill | frame ms | fps | project ms | pull-push ms | push+shade ms | M points/s | projection M points/s | coverage | GB/s | of triad |");
         out!("|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|");
         for name in &names {
             let mut scene = load_cloud(name, &args.data)?;
@@ -121,7 +122,7 @@ pub fn run(args: &BenchPointsArgs) -> Result<()> {
                     let total = med(&|s| s.elapsed.as_secs_f64() * 1e3);
                     let project = med(&stage("project"));
                     let points = runs[0].points as f64;
-                    let (pull_push, shade) = (med(&stage("pull-push")), med(&stage("shade")));
+                    let (pull_push, shade) = (med(&stage("pull-push")), med(&stage("push+shade")));
                     let bytes = PassBytes::of_frame(runs[0].points, side, side);
                     let gbs = [(bytes.project, project), (bytes.pull_push, pull_push), (bytes.shade, shade)]
                         .map(|(b, ms)| super::stream::gbs(b, ms));

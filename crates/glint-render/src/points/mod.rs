@@ -131,8 +131,10 @@ pub struct PointStats {
     pub buffers_ms: f64,
     pub clear_ms: f64,
     pub project_ms: f64,
-    /// Pull and push, down to the G-buffer.
+    /// The pull, and the push down to level 1 (with the gather of each pixel's winning point).
     pub pull_push_ms: f64,
+    /// The final push into the G-buffer (level 0) and the shading: one pass for a per-pixel
+    /// shading (Phong, flat), which shades each row as soon as it is made.
     pub shade_ms: f64,
     pub total_ms: f64,
 }
@@ -215,11 +217,11 @@ pub struct PassBytes {
     /// Each point's 16-byte stream record read, each pixel's depth word written.
     pub project: f64,
     /// Gather (depth words read, the winners' attributes written), the pull of level 1 (depth
-    /// words and attributes read, level 1 written), the coarser levels (a third of level 1, read
-    /// and written by the pull and the push) and the final push (depth words, attributes and
-    /// level 1 read, the G-buffer written).
+    /// words and attributes read, level 1 written) and the coarser levels (a third of level 1,
+    /// read and written by the pull and the push).
     pub pull_push: f64,
-    /// The G-buffer read, the colour written.
+    /// The final push fused with the (per-pixel) shading: depth words, attributes and level 1
+    /// read; the G-buffer and the colour written (each row shaded while it is in the cache).
     pub shade: f64,
 }
 
@@ -236,11 +238,8 @@ impl PassBytes {
         let colour = size_of::<Rgb>() as f64;
         Self {
             project: points as f64 * size_of::<prepared::StreamPoint>() as f64 + px * word,
-            pull_push: px * (word + gathered)
-                + (px * (word + gathered) + level1)
-                + 4.0 * level1 / 3.0
-                + (px * (word + gathered + gbuffer) + level1),
-            shade: px * (gbuffer + colour),
+            pull_push: px * (word + gathered) + (px * (word + gathered) + level1) + 4.0 * level1 / 3.0,
+            shade: px * (word + gathered + gbuffer + colour) + level1,
         }
     }
 }
@@ -316,16 +315,21 @@ impl PointRenderer {
         }
         let t_project = Instant::now();
 
-        self.reconstruct(&view, &clouds, settings.fill, frame);
-        let t_pull_push = Instant::now();
-
         let shading = match settings.shading {
             PointShading::Auto if self.every_cloud_has_normals => PointShading::Phong,
             PointShading::Auto => PointShading::EyeDome,
             s => s,
         };
-        let sky = self.sky_irradiance.as_ref();
-        shade::shade(scene, &view, sky, shading, settings.edl_strength, frame, shade::Kernel::Best);
+        let sky = self.sky_irradiance;
+        let shader =
+            shade::Shader::new(scene, &view, sky.as_ref(), shading, settings.edl_strength, shade::Kernel::Best);
+        // A per-pixel shading runs on each G-buffer row as the final push makes it, while the
+        // row is in the cache; eye-dome lighting needs the neighbouring rows and runs after.
+        let fused = shader.per_pixel();
+        let t_pull_push = self.reconstruct(&view, &clouds, settings.fill, frame, fused.then_some(&shader));
+        if !fused {
+            shade::shade(scene, &view, sky.as_ref(), shading, settings.edl_strength, frame, shade::Kernel::Best);
+        }
         let t_shade = Instant::now();
 
         let ms = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e3;
@@ -417,8 +421,17 @@ impl PointRenderer {
         self.gathered = gathered;
     }
 
-    /// Pull-push (per `fill`) down to the G-buffer in `frame`.
-    fn reconstruct(&mut self, view: &View, clouds: &[CloudView], fill: Fill, frame: &mut PointFrame) {
+    /// Pull-push (per `fill`) down to the G-buffer in `frame`, each row shaded by `shader` as
+    /// soon as the final push has made it. Returns when the pyramid was done (the final push
+    /// into the G-buffer began).
+    fn reconstruct(
+        &mut self,
+        view: &View,
+        clouds: &[CloudView],
+        fill: Fill,
+        frame: &mut PointFrame,
+        shader: Option<&shade::Shader<'_>>,
+    ) -> Instant {
         self.gather(view, clouds);
         let pyramid = matches!(fill, Fill::PullPush | Fill::Ellipses);
         let ellipses = fill == Fill::Ellipses;
@@ -445,6 +458,7 @@ impl PointRenderer {
                 pyramid::push_level(&coarse[0], &mut fine[k - 1], ellipses);
             }
         }
+        let pyramid_done = Instant::now();
         let width = view.width as usize;
         let level1 = levels.first();
         let this = &*self;
@@ -454,9 +468,10 @@ impl PointRenderer {
             .zip(frame.normal.par_chunks_mut(width))
             .zip(frame.albedo.par_chunks_mut(width))
             .zip(frame.material.par_chunks_mut(width))
+            .zip(frame.colour.par_chunks_mut(width))
             .enumerate()
             .with_min_len(4)
-            .for_each(|(y, (((depth, normal), albedo), material))| {
+            .for_each(|(y, ((((depth, normal), albedo), material), colour))| {
                 let rows = level1.map(|l1| pyramid::CoarseRows::new(l1, y as i64));
                 let words = &this.depth[y * width..(y + 1) * width];
                 // Outside the span nothing is covered or near a surface: no surface there.
@@ -500,8 +515,13 @@ impl PointRenderer {
                         material[x] = u32::MAX;
                     }
                 }
+                if let Some(shader) = shader {
+                    let g = shade::GBufferRow { depth, normal, albedo, material };
+                    shader.row(y, &g, depth, colour);
+                }
             });
         self.levels = levels;
+        pyramid_done
     }
 
     /// Pull level 1 straight from the depth buffer: 2×2 blocks without a point (most of them,

@@ -27,7 +27,8 @@ pub enum Kernel {
     Scalar,
 }
 
-/// Shade the G-buffer of `frame` into its colour plane.
+/// Shade the G-buffer of `frame` into its colour plane (the pass on its own; `mod.rs` fuses
+/// [`Shader::row`] with the final push when the shading is per pixel).
 pub fn shade(
     scene: &Scene,
     view: &View,
@@ -37,19 +38,8 @@ pub fn shade(
     frame: &mut PointFrame,
     kernel: Kernel,
 ) {
+    let shader = Shader::new(scene, view, sky_irradiance, shading, edl_strength, kernel);
     let width = frame.width as usize;
-    let height = frame.height as usize;
-    // The angle one pixel subtends at the centre: the sky's filter footprint.
-    let cone = 1.0 / view.focal;
-    let constant_sky = match &scene.sky {
-        glint_scene::Sky::Colour(c) => Some(*c),
-        _ => None,
-    };
-    // Phong in lanes, unless a light projects a texture (only `Light::sample_in` applies it).
-    let lanes = (matches!(shading, PointShading::Phong | PointShading::Auto)
-        && kernel != Kernel::Scalar
-        && !scene.lights.iter().any(glint_scene::Light::is_textured))
-    .then(|| PhongLanes::new(scene, sky_irradiance));
     let PointFrame { depth, normal, albedo, material, colour, .. } = frame;
     let (depth, normal, albedo, material) = (&*depth, &*normal, &*albedo, &*material);
     colour.par_chunks_mut(width).enumerate().with_min_len(4).for_each(|(y, row)| {
@@ -59,6 +49,57 @@ pub fn shade(
             albedo: &albedo[y * width..(y + 1) * width],
             material: &material[y * width..(y + 1) * width],
         };
+        shader.row(y, &g, depth, row);
+    });
+}
+
+/// What shading a pixel needs, made once per frame.
+pub(super) struct Shader<'a> {
+    scene: &'a Scene,
+    view: &'a View,
+    sky_irradiance: Option<&'a IrradianceSh>,
+    shading: PointShading,
+    edl_strength: f32,
+    kernel: Kernel,
+    /// The angle one pixel subtends at the centre: the sky's filter footprint.
+    cone: f32,
+    constant_sky: Option<Rgb>,
+    /// Phong in lanes, unless a light projects a texture (only `Light::sample_in` applies it).
+    lanes: Option<PhongLanes<'a>>,
+}
+
+impl<'a> Shader<'a> {
+    pub(super) fn new(
+        scene: &'a Scene,
+        view: &'a View,
+        sky_irradiance: Option<&'a IrradianceSh>,
+        shading: PointShading,
+        edl_strength: f32,
+        kernel: Kernel,
+    ) -> Self {
+        let constant_sky = match &scene.sky {
+            glint_scene::Sky::Colour(c) => Some(*c),
+            _ => None,
+        };
+        let lanes = (matches!(shading, PointShading::Phong | PointShading::Auto)
+            && kernel != Kernel::Scalar
+            && !scene.lights.iter().any(glint_scene::Light::is_textured))
+        .then(|| PhongLanes::new(scene, sky_irradiance));
+        Self { scene, view, sky_irradiance, shading, edl_strength, kernel, cone: 1.0 / view.focal, constant_sky, lanes }
+    }
+
+    /// Whether a pixel's colour depends on its own G-buffer texel only (all but eye-dome
+    /// lighting, which compares each depth with its neighbours'): then a row can be shaded as
+    /// soon as its G-buffer row is made.
+    pub(super) fn per_pixel(&self) -> bool {
+        self.shading != PointShading::EyeDome
+    }
+
+    /// Shade row `y` of the G-buffer (`g`) into `row`. `depth` is the whole depth plane, read
+    /// only by eye-dome lighting (a per-pixel shader may be given `g.depth`).
+    pub(super) fn row(&self, y: usize, g: &GBufferRow<'_>, depth: &[f32], row: &mut [Rgb]) {
+        let (scene, view, width) = (self.scene, self.view, g.depth.len());
+        let height = depth.len() / width.max(1);
         for (x0, row) in row.chunks_mut(LANES).enumerate().map(|(k, r)| (k * LANES, r)) {
             let n = row.len();
             let mut out = [Rgb::ZERO; LANES];
@@ -68,34 +109,36 @@ pub fn shade(
             for (k, (dir, z)) in dirs.iter_mut().zip(&g.depth[x0..x0 + n]).enumerate() {
                 if !z.is_finite() {
                     background |= 1 << k;
-                    if constant_sky.is_none() {
+                    if self.constant_sky.is_none() {
                         let p = Vec2::new((x0 + k) as f32 + 0.5, y as f32 + 0.5);
                         *dir = view.ray_at_depth_one(p).normalize();
                     }
                 }
             }
             if background != 0 {
-                out = match constant_sky {
+                out = match self.constant_sky {
                     Some(c) => [c; LANES],
-                    None => scene.sky.radiance_filtered8(&dirs, &[cone; LANES], background),
+                    None => scene.sky.radiance_filtered8(&dirs, &[self.cone; LANES], background),
                 };
             }
             let surface = (((1u32 << n) - 1) as u8) & !background;
             if surface != 0 {
-                if let Some(lanes) = &lanes {
-                    let run = PhongRun { lanes, view, g: &g, x0, y, surface, out: &mut out };
-                    dispatch(run, kernel == Kernel::Baseline);
+                if let Some(lanes) = &self.lanes {
+                    let run = PhongRun { lanes, view, g, x0, y, surface, out: &mut out };
+                    dispatch(run, self.kernel == Kernel::Baseline);
                 } else {
                     for k in (0..n).filter(|k| surface >> k & 1 == 1) {
-                        let (x, i) = (x0 + k, y * width + x0 + k);
-                        out[k] = match shading {
-                            PointShading::Flat => albedo[i],
-                            PointShading::EyeDome => albedo[i] * eye_dome(depth, width, height, x, y, edl_strength),
+                        let x = x0 + k;
+                        out[k] = match self.shading {
+                            PointShading::Flat => g.albedo[x],
+                            PointShading::EyeDome => {
+                                g.albedo[x] * eye_dome(depth, width, height, x, y, self.edl_strength)
+                            }
                             PointShading::Phong | PointShading::Auto => {
                                 let dir = view.ray_at_depth_one(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
-                                let position = view.eye + dir * depth[i];
+                                let position = view.eye + dir * g.depth[x];
                                 let wo = -dir.normalize();
-                                phong(scene, sky_irradiance, material[i], albedo[i], normal[i], position, wo)
+                                phong(scene, self.sky_irradiance, g.material[x], g.albedo[x], g.normal[x], position, wo)
                             }
                         };
                     }
@@ -103,15 +146,15 @@ pub fn shade(
             }
             row.copy_from_slice(&out[..n]);
         }
-    });
+    }
 }
 
 /// One row's G-buffer.
-struct GBufferRow<'a> {
-    depth: &'a [f32],
-    normal: &'a [Vec3],
-    albedo: &'a [Rgb],
-    material: &'a [u32],
+pub(super) struct GBufferRow<'a> {
+    pub(super) depth: &'a [f32],
+    pub(super) normal: &'a [Vec3],
+    pub(super) albedo: &'a [Rgb],
+    pub(super) material: &'a [u32],
 }
 
 /// What Phong in lanes reads of the scene: the lights, the materials as arrays a lane can
