@@ -239,7 +239,10 @@ impl LeafLanes {
         for i in 0..8 {
             let (r, w) = if group >> i & 1 == 1 {
                 let w = WoopRay::new(&rays[i]);
-                if [w.kx, w.ky, w.kz] != k {
+                // Field by field: as arrays, LLVM stored the three indices and loaded them
+                // back as one vector, a load the store buffer cannot forward (5 % of a packet
+                // walk of primary rays stalled there).
+                if w.kx != k[0] || w.ky != k[1] || w.kz != k[2] {
                     return None;
                 }
                 (&rays[i], w)
