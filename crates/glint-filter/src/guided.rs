@@ -512,19 +512,30 @@ fn coefficients<const D: usize>(
         let mut l = [[F8::ZERO; D]; D];
         let mut d = [F8::ZERO; D];
         let mut inv_d = [F8::ZERO; D];
+        // Every loop below runs D times, its bounds tested inside (`m < j`, ...): trip counts
+        // that are constants let LLVM unroll the whole solve into straight-line code in
+        // registers. With triangular bounds (`0..j`) it kept the loops, indexing the arrays on
+        // the stack, and the chain of pivots (a division each) left the core waiting; the
+        // operations and their order are the same.
         for j in 0..D {
             let mut dj = s[j][j];
-            for m in 0..j {
-                dj = dj - l[j][m] * l[j][m] * d[m];
+            for m in 0..D {
+                if m < j {
+                    dj = dj - l[j][m] * l[j][m] * d[m];
+                }
             }
             d[j] = dj.max(floor);
             inv_d[j] = F8::splat(1.0) / d[j];
-            for m in j + 1..D {
-                let mut v = s[m][j];
-                for t in 0..j {
-                    v = v - l[m][t] * l[j][t] * d[t];
+            for m in 0..D {
+                if m > j {
+                    let mut v = s[m][j];
+                    for t in 0..D {
+                        if t < j {
+                            v = v - l[m][t] * l[j][t] * d[t];
+                        }
+                    }
+                    l[m][j] = v * inv_d[j];
                 }
-                l[m][j] = v * inv_d[j];
             }
         }
         for c in 0..3 {
@@ -534,16 +545,21 @@ fn coefficients<const D: usize>(
                 a[m] = mean[D + 3 + nii + c * D + m] - mi[m] * mn[c];
             }
             for m in 0..D {
-                for t in 0..m {
-                    a[m] = a[m] - l[m][t] * a[t];
+                for t in 0..D {
+                    if t < m {
+                        a[m] = a[m] - l[m][t] * a[t];
+                    }
                 }
             }
             for m in 0..D {
                 a[m] = a[m] * inv_d[m];
             }
-            for m in (0..D).rev() {
-                for t in m + 1..D {
-                    a[m] = a[m] - l[t][m] * a[t];
+            for k in 0..D {
+                let m = D - 1 - k;
+                for t in 0..D {
+                    if t > m {
+                        a[m] = a[m] - l[t][m] * a[t];
+                    }
                 }
             }
             let mut b = mn[c];
