@@ -321,14 +321,20 @@ impl PointRenderer {
             s => s,
         };
         let sky = self.sky_irradiance;
-        let shader =
-            shade::Shader::new(scene, &view, sky.as_ref(), shading, settings.edl_strength, shade::Kernel::Best);
+        let shader = shade::Shader::new(shade::ShadeParams {
+            scene,
+            view: &view,
+            sky_irradiance: sky.as_ref(),
+            shading,
+            edl_strength: settings.edl_strength,
+            kernel: shade::Kernel::Best,
+        });
         // A per-pixel shading runs on each G-buffer row as the final push makes it, while the
         // row is in the cache; eye-dome lighting needs the neighbouring rows and runs after.
         let fused = shader.per_pixel();
         let t_pull_push = self.reconstruct(&view, &clouds, settings.fill, frame, fused.then_some(&shader));
         if !fused {
-            shade::shade(scene, &view, sky.as_ref(), shading, settings.edl_strength, frame, shade::Kernel::Best);
+            shader.frame(frame);
         }
         let t_shade = Instant::now();
 

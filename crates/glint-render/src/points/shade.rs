@@ -27,40 +27,19 @@ pub enum Kernel {
     Scalar,
 }
 
-/// Shade the G-buffer of `frame` into its colour plane (the pass on its own; `mod.rs` fuses
-/// [`Shader::row`] with the final push when the shading is per pixel).
-pub fn shade(
-    scene: &Scene,
-    view: &View,
-    sky_irradiance: Option<&IrradianceSh>,
-    shading: PointShading,
-    edl_strength: f32,
-    frame: &mut PointFrame,
-    kernel: Kernel,
-) {
-    let shader = Shader::new(scene, view, sky_irradiance, shading, edl_strength, kernel);
-    let width = frame.width as usize;
-    let PointFrame { depth, normal, albedo, material, colour, .. } = frame;
-    let (depth, normal, albedo, material) = (&*depth, &*normal, &*albedo, &*material);
-    colour.par_chunks_mut(width).enumerate().with_min_len(4).for_each(|(y, row)| {
-        let g = GBufferRow {
-            depth: &depth[y * width..(y + 1) * width],
-            normal: &normal[y * width..(y + 1) * width],
-            albedo: &albedo[y * width..(y + 1) * width],
-            material: &material[y * width..(y + 1) * width],
-        };
-        shader.row(y, &g, depth, row);
-    });
+/// What a frame is shaded with.
+pub(super) struct ShadeParams<'a> {
+    pub(super) scene: &'a Scene,
+    pub(super) view: &'a View,
+    pub(super) sky_irradiance: Option<&'a IrradianceSh>,
+    pub(super) shading: PointShading,
+    pub(super) edl_strength: f32,
+    pub(super) kernel: Kernel,
 }
 
 /// What shading a pixel needs, made once per frame.
 pub(super) struct Shader<'a> {
-    scene: &'a Scene,
-    view: &'a View,
-    sky_irradiance: Option<&'a IrradianceSh>,
-    shading: PointShading,
-    edl_strength: f32,
-    kernel: Kernel,
+    p: ShadeParams<'a>,
     /// The angle one pixel subtends at the centre: the sky's filter footprint.
     cone: f32,
     constant_sky: Option<Rgb>,
@@ -69,36 +48,46 @@ pub(super) struct Shader<'a> {
 }
 
 impl<'a> Shader<'a> {
-    pub(super) fn new(
-        scene: &'a Scene,
-        view: &'a View,
-        sky_irradiance: Option<&'a IrradianceSh>,
-        shading: PointShading,
-        edl_strength: f32,
-        kernel: Kernel,
-    ) -> Self {
-        let constant_sky = match &scene.sky {
+    pub(super) fn new(p: ShadeParams<'a>) -> Self {
+        let constant_sky = match &p.scene.sky {
             glint_scene::Sky::Colour(c) => Some(*c),
             _ => None,
         };
-        let lanes = (matches!(shading, PointShading::Phong | PointShading::Auto)
-            && kernel != Kernel::Scalar
-            && !scene.lights.iter().any(glint_scene::Light::is_textured))
-        .then(|| PhongLanes::new(scene, sky_irradiance));
-        Self { scene, view, sky_irradiance, shading, edl_strength, kernel, cone: 1.0 / view.focal, constant_sky, lanes }
+        let lanes = (matches!(p.shading, PointShading::Phong | PointShading::Auto)
+            && p.kernel != Kernel::Scalar
+            && !p.scene.lights.iter().any(glint_scene::Light::is_textured))
+        .then(|| PhongLanes::new(p.scene, p.sky_irradiance));
+        Self { cone: 1.0 / p.view.focal, constant_sky, lanes, p }
+    }
+
+    /// Shade the G-buffer of `frame` into its colour plane: the pass on its own (`mod.rs`
+    /// fuses [`Shader::row`] with the final push when [`Shader::per_pixel`]).
+    pub(super) fn frame(&self, frame: &mut PointFrame) {
+        let width = frame.width as usize;
+        let PointFrame { depth, normal, albedo, material, colour, .. } = frame;
+        let (depth, normal, albedo, material) = (&*depth, &*normal, &*albedo, &*material);
+        colour.par_chunks_mut(width).enumerate().with_min_len(4).for_each(|(y, row)| {
+            let g = GBufferRow {
+                depth: &depth[y * width..(y + 1) * width],
+                normal: &normal[y * width..(y + 1) * width],
+                albedo: &albedo[y * width..(y + 1) * width],
+                material: &material[y * width..(y + 1) * width],
+            };
+            self.row(y, &g, depth, row);
+        });
     }
 
     /// Whether a pixel's colour depends on its own G-buffer texel only (all but eye-dome
     /// lighting, which compares each depth with its neighbours'): then a row can be shaded as
     /// soon as its G-buffer row is made.
     pub(super) fn per_pixel(&self) -> bool {
-        self.shading != PointShading::EyeDome
+        self.p.shading != PointShading::EyeDome
     }
 
     /// Shade row `y` of the G-buffer (`g`) into `row`. `depth` is the whole depth plane, read
     /// only by eye-dome lighting (a per-pixel shader may be given `g.depth`).
     pub(super) fn row(&self, y: usize, g: &GBufferRow<'_>, depth: &[f32], row: &mut [Rgb]) {
-        let (scene, view, width) = (self.scene, self.view, g.depth.len());
+        let (scene, view, width) = (self.p.scene, self.p.view, g.depth.len());
         let height = depth.len() / width.max(1);
         for (x0, row) in row.chunks_mut(LANES).enumerate().map(|(k, r)| (k * LANES, r)) {
             let n = row.len();
@@ -125,20 +114,28 @@ impl<'a> Shader<'a> {
             if surface != 0 {
                 if let Some(lanes) = &self.lanes {
                     let run = PhongRun { lanes, view, g, x0, y, surface, out: &mut out };
-                    dispatch(run, self.kernel == Kernel::Baseline);
+                    dispatch(run, self.p.kernel == Kernel::Baseline);
                 } else {
                     for k in (0..n).filter(|k| surface >> k & 1 == 1) {
                         let x = x0 + k;
-                        out[k] = match self.shading {
+                        out[k] = match self.p.shading {
                             PointShading::Flat => g.albedo[x],
                             PointShading::EyeDome => {
-                                g.albedo[x] * eye_dome(depth, width, height, x, y, self.edl_strength)
+                                g.albedo[x] * eye_dome(depth, width, height, x, y, self.p.edl_strength)
                             }
                             PointShading::Phong | PointShading::Auto => {
                                 let dir = view.ray_at_depth_one(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
                                 let position = view.eye + dir * g.depth[x];
                                 let wo = -dir.normalize();
-                                phong(scene, self.sky_irradiance, g.material[x], g.albedo[x], g.normal[x], position, wo)
+                                phong(
+                                    scene,
+                                    self.p.sky_irradiance,
+                                    g.material[x],
+                                    g.albedo[x],
+                                    g.normal[x],
+                                    position,
+                                    wo,
+                                )
                             }
                         };
                     }

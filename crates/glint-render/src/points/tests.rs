@@ -582,7 +582,15 @@ fn phong_in_lanes_matches_the_scalar_shading() {
     let fused = frame.colour.clone();
     let view = View::new(&scene.camera, frame.width, frame.height);
     let mut shaded = |kernel| {
-        shade::shade(&scene, &view, Some(&sh), PointShading::Phong, 1.0, &mut frame, kernel);
+        let params = shade::ShadeParams {
+            scene: &scene,
+            view: &view,
+            sky_irradiance: Some(&sh),
+            shading: PointShading::Phong,
+            edl_strength: 1.0,
+            kernel,
+        };
+        shade::Shader::new(params).frame(&mut frame);
         frame.colour.clone()
     };
     let (scalar, best, baseline) =
