@@ -8,9 +8,10 @@
 //! so each row first computes the 12 "forward" taps (below, or right on the same row) of its
 //! pixels, uses them for its own sums and keeps them in a ring of rows; each pixel then adds its
 //! 12 "backward" taps by reading the weight its neighbour computed. Half the exponentials, and
-//! the same bits as computing both (the weight of a pair is one value either way). The loops
-//! run tap by tap over 128-pixel segments of a row, whose pixels are independent, so the long
-//! dependency chain of each weight (distance, then `exp2`) does not serialise the work.
+//! the same bits as computing both (the weight of a pair is one value either way). A row's
+//! forward pass keeps a vector's centre features and its four sums in registers across the 12
+//! taps (the taps' weights are independent, so the long chain of each, distance then `exp2`,
+//! overlaps the next tap's); its backward pass adds the stored weights and writes the output.
 //!
 //! The colour sigma halves each iteration, which in scaled units is a factor 2 on the colour
 //! written for the next one (exact in binary floating point). Taps outside the image get
@@ -28,10 +29,6 @@ use crate::lanes::{Chunk, F8, LANES, array};
 use crate::padded::{Padded, inner_vectors, view};
 use crate::simd::{self, Kernels};
 use crate::{AtrousParams, FilterError, Guide, Isa};
-
-/// Vectors per row segment of the forward pass (its 7 feature planes, three tap rows and
-/// sums fit in L1).
-const SEGMENT: usize = 16;
 
 /// More iterations than this would space taps 2^16 px apart: beyond any image.
 const MAX_ITERATIONS: u32 = 16;
@@ -152,8 +149,39 @@ pub(crate) struct BandJob<'a> {
 /// A band's weight ring, reused between calls (fresh pages cost more than the arithmetic).
 static RINGS: Mutex<Vec<Vec<Chunk>>> = Mutex::new(Vec::new());
 
-/// Runs one band of one iteration (see the module documentation); a row's sums live in a
-/// small array, vector by vector.
+/// One forward tap of a row: where its features are, which vectors need the border mask, and
+/// its kernel weight's exponent offset.
+#[derive(Clone, Copy, Default)]
+struct Tap<'a> {
+    /// The tap row's normal x, y, z and depth from the tap's column on, plane p at vector
+    /// `p·s8` (one slice: reading plane 3 first bounds the other three).
+    geo: &'a [Chunk],
+    /// Its colour, likewise.
+    colour: &'a [Chunk],
+    /// Where the tap's weights go in the ring slot of the row.
+    weights: usize,
+    /// Vectors whose lanes and partners all lie inside the image (no mask needed).
+    inner: (usize, usize),
+    /// The tap's column offset in pixels, as a float for the border mask.
+    dx: f32,
+    /// −log₂ h of the tap, the start of its exponent.
+    offset: f32,
+}
+
+/// One backward tap of a row: the weights its partner row stored and that row's colour, both
+/// seen from this row's pixels.
+#[derive(Clone, Copy, Default)]
+struct Back<'a> {
+    weights: &'a [Chunk],
+    colour: &'a [Chunk],
+}
+
+/// Runs one band of one iteration (see the module documentation). Each row takes two passes
+/// over its vectors: the forward pass keeps a vector's centre features and four sums in
+/// registers while it runs through the 12 forward taps (storing each weight in the ring), the
+/// backward pass adds the 12 weights the rows above stored and writes the output. Both run
+/// the taps in the same order as ever (centre, forward, backward), so the bits do not depend
+/// on the band.
 #[inline(always)]
 pub(crate) fn band<K: Kernels>(k: K, job: BandJob<'_>) {
     let BandJob { geo, cur, step, factor, offset, centre, y0, out } = job;
@@ -166,99 +194,119 @@ pub(crate) fn band<K: Kernels>(k: K, job: BandJob<'_>) {
     let mut ring = RINGS.lock().ok().and_then(|mut r| r.pop()).unwrap_or_default();
     ring.clear();
     ring.resize(slots * 12 * s8, [0.0; LANES]);
-    // Per row and vector: Σw·c (3) and Σw, side by side (four planes n8 vectors apart would be
-    // 4 KiB apart at 1024 wide, and a load that looks like it aliases the store before it waits).
+    // Per row and vector: Σw·c (3) and Σw, side by side, between the two passes.
     let mut sums = vec![[[0.0f32; LANES]; 4]; n8];
     let wc = k.exp2_neg(F8::splat(centre));
     let w_f = w as f32;
+    let at = |p: usize, dx: isize| (p * stride + m).wrapping_add_signed(dx);
     for y in first..y1 {
         let slot = (y - first) % slots * 12 * s8;
-        let at = |p: usize, dx: isize| (p * stride + m).wrapping_add_signed(dx);
         let (centre_geo, centre_colour) = (geo.block(y), cur.block(y));
-        let cg: [&[Chunk]; 4] = array(|p| view(centre_geo, at(p, 0), wp));
-        let cc: [&[Chunk]; 3] = array(|c| view(centre_colour, at(c, 0), wp));
-        let sums = &mut sums[..n8];
-        // The centre tap first.
-        for i in 0..n8 {
-            sums[i] = [(wc * F8(cc[0][i])).0, (wc * F8(cc[1][i])).0, (wc * F8(cc[2][i])).0, wc.0];
+        // Plane p of a block's view at vector p·s8 (plane 3 read first bounds the others).
+        let span = |count: usize| (count - 1) * stride + wp;
+        let (cg, cc) = (view(centre_geo, at(0, 0), span(4)), view(centre_colour, at(0, 0), span(3)));
+        let mut live = [false; 12];
+        let taps: [Tap<'_>; 12] = array(|o| {
+            let (tx, ty) = FORWARD[o];
+            let dx = tx * step as isize;
+            let yy = y + ty * step;
+            if yy >= h || dx.unsigned_abs() >= w {
+                return Tap::default();
+            }
+            live[o] = true;
+            let inner = inner_vectors(w, dx);
+            Tap {
+                geo: view(geo.block(yy), at(0, dx), span(4)),
+                colour: view(cur.block(yy), at(0, dx), span(3)),
+                weights: o * s8 + m8,
+                inner: (inner.start, inner.end),
+                dx: dx as f32,
+                offset: offset[o],
+            }
+        });
+        let weights = &mut ring[slot..slot + 12 * s8];
+        for (o, &live) in live.iter().enumerate() {
+            if !live {
+                weights[o * s8..(o + 1) * s8].fill([0.0; LANES]);
+            }
         }
-        // Forward taps of row y: their weights go to the ring and into this row's sums. The row
-        // is done a segment at a time so that its features stay in L1 across the 12 taps.
-        for seg in (0..n8).step_by(SEGMENT) {
-            let seg = seg..(seg + SEGMENT).min(n8);
-            for (o, &(tx, ty)) in FORWARD.iter().enumerate() {
-                let weights = &mut ring[slot + o * s8 + m8..slot + o * s8 + m8 + n8];
-                let dx = tx * step as isize;
-                let yy = y + ty * step;
-                if yy >= h || dx.unsigned_abs() >= w {
-                    weights[seg.clone()].fill([0.0; LANES]);
+        for i in 0..n8 {
+            let c3 = F8(cg[3 * s8 + i]);
+            let c6 = F8(cc[2 * s8 + i]);
+            let c = [F8(cg[i]), F8(cg[s8 + i]), F8(cg[2 * s8 + i]), c3, F8(cc[i]), F8(cc[s8 + i]), c6];
+            let mut s = [wc * c[4], wc * c[5], wc * c[6], wc];
+            for (t, &live) in taps.iter().zip(&live) {
+                if !live {
                     continue;
                 }
-                let (tap_geo, tap_colour) = (geo.block(yy), cur.block(yy));
-                let tg: [&[Chunk]; 4] = array(|p| view(tap_geo, at(p, dx), wp));
-                let tc: [&[Chunk]; 3] = array(|c| view(tap_colour, at(c, dx), wp));
-                let off = F8::splat(offset[o]);
-                let inner = inner_vectors(w, dx);
-                for i in seg.clone() {
-                    let tap = [F8(tc[0][i]), F8(tc[1][i]), F8(tc[2][i])];
-                    let d = [
-                        F8(tg[0][i]) - F8(cg[0][i]),
-                        F8(tg[1][i]) - F8(cg[1][i]),
-                        F8(tg[2][i]) - F8(cg[2][i]),
-                        F8(tg[3][i]) - F8(cg[3][i]),
-                        tap[0] - F8(cc[0][i]),
-                        tap[1] - F8(cc[1][i]),
-                        tap[2] - F8(cc[2][i]),
-                    ];
-                    // Four short chains instead of one of seven multiply-adds.
-                    let s01 = k.mul_add(d[1], d[1], k.mul_add(d[0], d[0], off));
-                    let s23 = k.mul_add(d[3], d[3], d[2] * d[2]);
-                    let s45 = k.mul_add(d[5], d[5], d[4] * d[4]);
-                    let mut wt = k.exp2_neg((s01 + s23) + (s45 + d[6] * d[6]));
-                    if !inner.contains(&i) {
-                        // Lane l pairs column x + l with column x + dx + l: both must be in the image.
-                        let x = (i * LANES) as f32;
-                        wt = wt * F8::window_mask(x + dx as f32, 0.0, w_f) * F8::window_mask(x, 0.0, w_f);
-                    }
-                    weights[i] = wt.0;
-                    let sum = &mut sums[i];
-                    for c in 0..3 {
-                        sum[c] = k.mul_add(wt, tap[c], F8(sum[c])).0;
-                    }
-                    sum[3] = (F8(sum[3]) + wt).0;
+                let (g3, t2) = (F8(t.geo[3 * s8 + i]), F8(t.colour[2 * s8 + i]));
+                let tap = [F8(t.colour[i]), F8(t.colour[s8 + i]), t2];
+                let d = [
+                    F8(t.geo[i]) - c[0],
+                    F8(t.geo[s8 + i]) - c[1],
+                    F8(t.geo[2 * s8 + i]) - c[2],
+                    g3 - c[3],
+                    tap[0] - c[4],
+                    tap[1] - c[5],
+                    tap[2] - c[6],
+                ];
+                // Four short chains instead of one of seven multiply-adds.
+                let s01 = k.mul_add(d[1], d[1], k.mul_add(d[0], d[0], F8::splat(t.offset)));
+                let s23 = k.mul_add(d[3], d[3], d[2] * d[2]);
+                let s45 = k.mul_add(d[5], d[5], d[4] * d[4]);
+                let mut wt = k.exp2_neg((s01 + s23) + (s45 + d[6] * d[6]));
+                if i < t.inner.0 || i >= t.inner.1 {
+                    // Lane l pairs column x + l with column x + dx + l: both must be in the image.
+                    let x = (i * LANES) as f32;
+                    wt = wt * F8::window_mask(x + t.dx, 0.0, w_f) * F8::window_mask(x, 0.0, w_f);
                 }
+                weights[t.weights + i] = wt.0;
+                for c in 0..3 {
+                    s[c] = k.mul_add(wt, tap[c], s[c]);
+                }
+                s[3] += wt;
             }
+            sums[i] = s.map(|v| v.0);
         }
         if y < y0 {
             continue;
         }
         // Backward taps: the weight the neighbour q − o stored, times that neighbour's colour.
         // Outside the image the stored weights are zero (margins, masked lanes).
-        for (o, &(tx, ty)) in FORWARD.iter().enumerate() {
+        let mut live = [false; 12];
+        let back: [Back<'_>; 12] = array(|o| {
+            let (tx, ty) = FORWARD[o];
             let dx = tx * step as isize;
-            let Some(py) = y.checked_sub(ty * step) else { continue };
+            let Some(py) = y.checked_sub(ty * step) else { return Back::default() };
             if dx.unsigned_abs() >= w {
-                continue;
+                return Back::default();
             }
+            live[o] = true;
             let start = ((py - first) % slots * 12 * s8 + o * s8) * LANES + m;
-            let weights = view(ring.as_flattened(), start.wrapping_add_signed(-dx), wp);
-            let colour = cur.block(py);
-            let col: [&[Chunk]; 3] = array(|c| view(colour, at(c, -dx), wp));
-            for i in 0..n8 {
-                let wt = F8(weights[i]);
-                let sum = &mut sums[i];
-                for c in 0..3 {
-                    sum[c] = k.mul_add(wt, F8(col[c][i]), F8(sum[c])).0;
-                }
-                sum[3] = (F8(sum[3]) + wt).0;
+            Back {
+                weights: view(ring.as_flattened(), start.wrapping_add_signed(-dx), wp),
+                colour: view(cur.block(py), at(0, -dx), span(3)),
             }
-        }
-        // The centre tap always counts (weight ≈ 0.14), so Σw > 0 for image pixels.
+        });
         let row = &mut out[(y - y0) * 3 * stride..(y - y0 + 1) * 3 * stride];
         for (i, sum) in sums.iter().enumerate() {
-            let scale = F8::splat(factor) / F8(sum[3]);
+            let mut s = sum.map(F8);
+            for (b, &live) in back.iter().zip(&live) {
+                if !live {
+                    continue;
+                }
+                let wt = F8(b.weights[i]);
+                let c2 = F8(b.colour[2 * s8 + i]);
+                let col = [F8(b.colour[i]), F8(b.colour[s8 + i]), c2];
+                for c in 0..3 {
+                    s[c] = k.mul_add(wt, col[c], s[c]);
+                }
+                s[3] += wt;
+            }
+            // The centre tap always counts (weight ≈ 0.14), so Σw > 0 for image pixels.
+            let scale = F8::splat(factor) / s[3];
             for c in 0..3 {
-                let v = (F8(sum[c]) * scale).0;
+                let v = (s[c] * scale).0;
                 let x = c * stride + m + i * LANES;
                 let n = LANES.min(w - i * LANES);
                 row[x..x + n].copy_from_slice(&v[..n]);
