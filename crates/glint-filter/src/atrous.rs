@@ -25,7 +25,7 @@ use std::sync::Mutex;
 use rayon::prelude::*;
 
 use crate::check::{self, Names};
-use crate::lanes::{Chunk, F8, LANES, array};
+use crate::lanes::{LANES, Wide, array};
 use crate::padded::{Padded, inner_vectors, view};
 use crate::simd::{self, Kernels};
 use crate::{AtrousParams, FilterError, Guide, Isa};
@@ -84,7 +84,9 @@ pub(crate) fn atrous_into_named(
     // Taps at |dx| >= w can never land inside the image and are skipped, so the margin never
     // needs to exceed the width.
     let reach = (2usize << (p.iterations - 1)).min(w + LANES);
-    let mut geo = Padded::zeros(w, h, reach, 4);
+    // Rows in whole vectors of the width the kernel runs (16 lanes with AVX-512).
+    let lanes = simd::atrous_lanes(isa);
+    let mut geo = Padded::zeros_for(lanes, w, h, reach, 4);
     let kn = root / p.sigma_normal;
     let mut finite = true;
     for (k, plane) in guide.normal.iter().enumerate() {
@@ -92,7 +94,7 @@ pub(crate) fn atrous_into_named(
     }
     let kz = root / p.sigma_depth;
     finite &= geo.fill(3, guide.depth, |z| z.min(1.0) * kz);
-    let mut cur = Padded::zeros(w, h, reach, 3);
+    let mut cur = Padded::zeros_for(lanes, w, h, reach, 3);
     let mut kc = root / (p.sigma_colour * colour_scale(input));
     for (k, plane) in input.iter().enumerate() {
         finite &= cur.fill(k, plane, |v| v * kc);
@@ -147,17 +149,17 @@ pub(crate) struct BandJob<'a> {
 }
 
 /// A band's weight ring, reused between calls (fresh pages cost more than the arithmetic).
-static RINGS: Mutex<Vec<Vec<Chunk>>> = Mutex::new(Vec::new());
+static RINGS: Mutex<Vec<Vec<f32>>> = Mutex::new(Vec::new());
 
 /// One forward tap of a row: where its features are, which vectors need the border mask, and
 /// its kernel weight's exponent offset.
 #[derive(Clone, Copy, Default)]
-struct Tap<'a> {
+struct Tap<'a, const N: usize> {
     /// The tap row's normal x, y, z and depth from the tap's column on, plane p at vector
     /// `p·s8` (one slice: reading plane 3 first bounds the other three).
-    geo: &'a [Chunk],
+    geo: &'a [[f32; N]],
     /// Its colour, likewise.
-    colour: &'a [Chunk],
+    colour: &'a [[f32; N]],
     /// Where the tap's weights go in the ring slot of the row.
     weights: usize,
     /// Vectors whose lanes and partners all lie inside the image (no mask needed).
@@ -171,9 +173,9 @@ struct Tap<'a> {
 /// One backward tap of a row: the weights its partner row stored and that row's colour, both
 /// seen from this row's pixels.
 #[derive(Clone, Copy, Default)]
-struct Back<'a> {
-    weights: &'a [Chunk],
-    colour: &'a [Chunk],
+struct Back<'a, const N: usize> {
+    weights: &'a [[f32; N]],
+    colour: &'a [[f32; N]],
 }
 
 /// Runs one band of one iteration (see the module documentation). Each row takes two passes
@@ -183,20 +185,22 @@ struct Back<'a> {
 /// the taps in the same order as ever (centre, forward, backward), so the bits do not depend
 /// on the band.
 #[inline(always)]
-pub(crate) fn band<K: Kernels>(k: K, job: BandJob<'_>) {
+pub(crate) fn band<K: Kernels, const N: usize>(k: K, job: BandJob<'_>) {
     let BandJob { geo, cur, step, factor, offset, centre, y0, out } = job;
     let (w, h, wp, m, stride) = (geo.w, geo.h, geo.wp, geo.margin, geo.stride);
     let y1 = y0 + out.len() / (3 * stride);
-    let (n8, s8, m8) = (wp / LANES, stride / LANES, m / LANES);
+    assert!(wp % N == 0 && m % N == 0 && stride % N == 0, "planes laid out for {N} lanes");
+    let (n8, s8, m8) = (wp / N, stride / N, m / N);
     // Forward weights of rows y − 2·step ..= y: slot per row, 12 padded rows per slot.
     let first = y0.saturating_sub(2 * step);
     let slots = (2 * step + 1).min(y1 - first);
-    let mut ring = RINGS.lock().ok().and_then(|mut r| r.pop()).unwrap_or_default();
-    ring.clear();
-    ring.resize(slots * 12 * s8, [0.0; LANES]);
+    let mut store = RINGS.lock().ok().and_then(|mut r| r.pop()).unwrap_or_default();
+    store.clear();
+    store.resize(slots * 12 * stride, 0.0);
+    let ring = store.as_chunks_mut::<N>().0;
     // Per row and vector: Σw·c (3) and Σw, side by side, between the two passes.
-    let mut sums = vec![[[0.0f32; LANES]; 4]; n8];
-    let wc = k.exp2_neg(F8::splat(centre));
+    let mut sums = vec![[[0.0f32; N]; 4]; n8];
+    let wc = k.exp2_neg(Wide::<N>::splat(centre));
     let w_f = w as f32;
     let at = |p: usize, dx: isize| (p * stride + m).wrapping_add_signed(dx);
     for y in first..y1 {
@@ -206,7 +210,7 @@ pub(crate) fn band<K: Kernels>(k: K, job: BandJob<'_>) {
         let span = |count: usize| (count - 1) * stride + wp;
         let (cg, cc) = (view(centre_geo, at(0, 0), span(4)), view(centre_colour, at(0, 0), span(3)));
         let mut live = [false; 12];
-        let taps: [Tap<'_>; 12] = array(|o| {
+        let taps: [Tap<'_, N>; 12] = array(|o| {
             let (tx, ty) = FORWARD[o];
             let dx = tx * step as isize;
             let yy = y + ty * step;
@@ -214,7 +218,7 @@ pub(crate) fn band<K: Kernels>(k: K, job: BandJob<'_>) {
                 return Tap::default();
             }
             live[o] = true;
-            let inner = inner_vectors(w, dx);
+            let inner = inner_vectors(N, w, dx);
             Tap {
                 geo: view(geo.block(yy), at(0, dx), span(4)),
                 colour: view(cur.block(yy), at(0, dx), span(3)),
@@ -227,38 +231,38 @@ pub(crate) fn band<K: Kernels>(k: K, job: BandJob<'_>) {
         let weights = &mut ring[slot..slot + 12 * s8];
         for (o, &live) in live.iter().enumerate() {
             if !live {
-                weights[o * s8..(o + 1) * s8].fill([0.0; LANES]);
+                weights[o * s8..(o + 1) * s8].fill([0.0; N]);
             }
         }
         for i in 0..n8 {
-            let c3 = F8(cg[3 * s8 + i]);
-            let c6 = F8(cc[2 * s8 + i]);
-            let c = [F8(cg[i]), F8(cg[s8 + i]), F8(cg[2 * s8 + i]), c3, F8(cc[i]), F8(cc[s8 + i]), c6];
+            let c3 = Wide(cg[3 * s8 + i]);
+            let c6 = Wide(cc[2 * s8 + i]);
+            let c = [Wide(cg[i]), Wide(cg[s8 + i]), Wide(cg[2 * s8 + i]), c3, Wide(cc[i]), Wide(cc[s8 + i]), c6];
             let mut s = [wc * c[4], wc * c[5], wc * c[6], wc];
             for (t, &live) in taps.iter().zip(&live) {
                 if !live {
                     continue;
                 }
-                let (g3, t2) = (F8(t.geo[3 * s8 + i]), F8(t.colour[2 * s8 + i]));
-                let tap = [F8(t.colour[i]), F8(t.colour[s8 + i]), t2];
+                let (g3, t2) = (Wide(t.geo[3 * s8 + i]), Wide(t.colour[2 * s8 + i]));
+                let tap = [Wide(t.colour[i]), Wide(t.colour[s8 + i]), t2];
                 let d = [
-                    F8(t.geo[i]) - c[0],
-                    F8(t.geo[s8 + i]) - c[1],
-                    F8(t.geo[2 * s8 + i]) - c[2],
+                    Wide(t.geo[i]) - c[0],
+                    Wide(t.geo[s8 + i]) - c[1],
+                    Wide(t.geo[2 * s8 + i]) - c[2],
                     g3 - c[3],
                     tap[0] - c[4],
                     tap[1] - c[5],
                     tap[2] - c[6],
                 ];
                 // Four short chains instead of one of seven multiply-adds.
-                let s01 = k.mul_add(d[1], d[1], k.mul_add(d[0], d[0], F8::splat(t.offset)));
+                let s01 = k.mul_add(d[1], d[1], k.mul_add(d[0], d[0], Wide::splat(t.offset)));
                 let s23 = k.mul_add(d[3], d[3], d[2] * d[2]);
                 let s45 = k.mul_add(d[5], d[5], d[4] * d[4]);
                 let mut wt = k.exp2_neg((s01 + s23) + (s45 + d[6] * d[6]));
                 if i < t.inner.0 || i >= t.inner.1 {
                     // Lane l pairs column x + l with column x + dx + l: both must be in the image.
-                    let x = (i * LANES) as f32;
-                    wt = wt * F8::window_mask(x + t.dx, 0.0, w_f) * F8::window_mask(x, 0.0, w_f);
+                    let x = (i * N) as f32;
+                    wt = wt * Wide::<N>::window_mask(x + t.dx, 0.0, w_f) * Wide::<N>::window_mask(x, 0.0, w_f);
                 }
                 weights[t.weights + i] = wt.0;
                 for c in 0..3 {
@@ -274,7 +278,7 @@ pub(crate) fn band<K: Kernels>(k: K, job: BandJob<'_>) {
         // Backward taps: the weight the neighbour q − o stored, times that neighbour's colour.
         // Outside the image the stored weights are zero (margins, masked lanes).
         let mut live = [false; 12];
-        let back: [Back<'_>; 12] = array(|o| {
+        let back: [Back<'_, N>; 12] = array(|o| {
             let (tx, ty) = FORWARD[o];
             let dx = tx * step as isize;
             let Some(py) = y.checked_sub(ty * step) else { return Back::default() };
@@ -282,7 +286,7 @@ pub(crate) fn band<K: Kernels>(k: K, job: BandJob<'_>) {
                 return Back::default();
             }
             live[o] = true;
-            let start = ((py - first) % slots * 12 * s8 + o * s8) * LANES + m;
+            let start = ((py - first) % slots * 12 * s8 + o * s8) * N + m;
             Back {
                 weights: view(ring.as_flattened(), start.wrapping_add_signed(-dx), wp),
                 colour: view(cur.block(py), at(0, -dx), span(3)),
@@ -290,25 +294,25 @@ pub(crate) fn band<K: Kernels>(k: K, job: BandJob<'_>) {
         });
         let row = &mut out[(y - y0) * 3 * stride..(y - y0 + 1) * 3 * stride];
         for (i, sum) in sums.iter().enumerate() {
-            let mut s = sum.map(F8);
+            let mut s = sum.map(Wide);
             for (b, &live) in back.iter().zip(&live) {
                 if !live {
                     continue;
                 }
-                let wt = F8(b.weights[i]);
-                let c2 = F8(b.colour[2 * s8 + i]);
-                let col = [F8(b.colour[i]), F8(b.colour[s8 + i]), c2];
+                let wt = Wide(b.weights[i]);
+                let c2 = Wide(b.colour[2 * s8 + i]);
+                let col = [Wide(b.colour[i]), Wide(b.colour[s8 + i]), c2];
                 for c in 0..3 {
                     s[c] = k.mul_add(wt, col[c], s[c]);
                 }
                 s[3] += wt;
             }
             // The centre tap always counts (weight ≈ 0.14), so Σw > 0 for image pixels.
-            let scale = F8::splat(factor) / s[3];
+            let scale = Wide::splat(factor) / s[3];
             for c in 0..3 {
                 let v = (s[c] * scale).0;
-                let x = c * stride + m + i * LANES;
-                let n = LANES.min(w - i * LANES);
+                let x = c * stride + m + i * N;
+                let n = N.min(w - i * N);
                 row[x..x + n].copy_from_slice(&v[..n]);
             }
         }
@@ -316,7 +320,7 @@ pub(crate) fn band<K: Kernels>(k: K, job: BandJob<'_>) {
     if let Ok(mut rings) = RINGS.lock()
         && rings.len() < 8
     {
-        rings.push(ring);
+        rings.push(store);
     }
 }
 
@@ -332,12 +336,31 @@ mod tests {
         for iterations in [1, 3, 5] {
             let p = AtrousParams { iterations, sigma_colour: 0.8, sigma_normal: 0.6, sigma_depth: 0.4 };
             let want = oracle::atrous_direct(scene.input(), &scene.guide(), &p);
-            for isa in [Isa::Portable, Isa::Avx2] {
+            for isa in [Isa::Portable, Isa::Avx2, Isa::Avx512] {
                 let got =
                     crate::apply_with(isa, &crate::Filter::Atrous(p), scene.input(), &scene.guide()).expect("valid");
                 for c in 0..3 {
                     let d = got[c].iter().zip(&want[c]).fold(0.0f32, |m, (a, b)| m.max((a - b).abs()));
                     assert!(d < 2e-5, "{iterations} iterations, plane {c}: {d}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_16_lane_build_gives_the_8_lane_bits() {
+        // Same operations lane for lane, on planes laid out for 16 lanes: the same bits, at
+        // widths that end inside a 16-lane vector, inside an 8-lane one, and on a whole one.
+        for (w, h) in [(37, 19), (45, 11), (64, 9), (5, 7)] {
+            let scene = random_scene(w, h, 9);
+            for iterations in [1, 2, 5] {
+                let p = AtrousParams { iterations, sigma_colour: 0.8, sigma_normal: 0.6, sigma_depth: 0.4 };
+                let filter = crate::Filter::Atrous(p);
+                let a = crate::apply_with(Isa::Avx2, &filter, scene.input(), &scene.guide()).expect("valid");
+                let b = crate::apply_with(Isa::Avx512, &filter, scene.input(), &scene.guide()).expect("valid");
+                let bits = |p: &Vec<f32>| p.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                for c in 0..3 {
+                    assert_eq!(bits(&a[c]), bits(&b[c]), "{w}x{h}, {iterations} iterations, plane {c}");
                 }
             }
         }

@@ -13,7 +13,7 @@
 //! its carry chain is one addition per four columns of two rows. The portable code below
 //! performs exactly the same additions in the same order, so both give the same bits.
 
-use crate::lanes::{Chunk, F8, LANES};
+use crate::lanes::{Chunk, F8, LANES, Wide};
 
 /// Columns between fresh window sums.
 pub(crate) const REBASE: usize = 128;
@@ -24,7 +24,7 @@ pub(crate) fn window_sum(s: &[f32]) -> f32 {
     let (whole, tail) = s.as_chunks::<LANES>();
     let mut acc = F8::ZERO;
     for c in whole {
-        acc += F8(*c);
+        acc += Wide(*c);
     }
     let mut t = 0.0;
     for v in tail {

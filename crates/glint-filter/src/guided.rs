@@ -40,7 +40,7 @@ use rayon::prelude::*;
 
 use crate::boxsum::{BLOCK, pad, tail_pad};
 use crate::check::{self, Names};
-use crate::lanes::{Chunk, F8, LANES, NanIfNotFinite, array};
+use crate::lanes::{Chunk, F8, LANES, NanIfNotFinite, Wide, array};
 use crate::simd::{self, Kernels};
 use crate::{FilterError, Guide, GuideChannels, GuidedParams, Isa};
 
@@ -339,14 +339,14 @@ pub(crate) fn strip<const D: usize, K: Kernels>(k: K, job: StripJob<'_>) {
 fn convert(src: &[f32], dst: &mut [Chunk], check: &mut F8, f: impl Fn(F8) -> F8) {
     let (full, tail) = src.as_chunks::<LANES>();
     for (d, s) in dst.iter_mut().zip(full) {
-        let v = F8(*s);
+        let v = Wide(*s);
         *check += v.nan_if_not_finite();
         *d = f(v).0;
     }
     if !tail.is_empty() {
         let mut t = ZERO;
         t[..tail.len()].copy_from_slice(tail);
-        let v = F8(t);
+        let v = Wide(t);
         *check += v.nan_if_not_finite();
         let mut o = f(v).0;
         o[tail.len()..].fill(0.0);
@@ -359,7 +359,7 @@ fn convert(src: &[f32], dst: &mut [Chunk], check: &mut F8, f: impl Fn(F8) -> F8)
 fn check_plane(src: &[f32], check: &mut F8) {
     let (full, tail) = src.as_chunks::<LANES>();
     for s in full {
-        *check += F8(*s).nan_if_not_finite();
+        *check += Wide(*s).nan_if_not_finite();
     }
     for &v in tail {
         check.0[0] += v.nan_if_not_finite();
@@ -384,7 +384,7 @@ fn load_row<const D: usize, const INPUT: bool>(src: &Source, lay: &Layout, y: us
                 let mut c = ZERO;
                 let n = if i < full { LANES } else { tail };
                 c[..n].copy_from_slice(&p[i * LANES..i * LANES + n]);
-                F8(c)
+                Wide(c)
             };
             let (x, y, z) = (load(nx), load(ny), load(nz));
             if INPUT {
@@ -427,19 +427,19 @@ fn vertical1<const D: usize>(lay: &Layout, colsum: &mut [Chunk], e: &[Chunk], l:
     for i in 0..n8 {
         let (mut ie, mut il) = ([F8::ZERO; D], [F8::ZERO; D]);
         for d in 0..D {
-            ie[d] = F8(ep[d][i]);
-            il[d] = F8(lp[d][i]);
+            ie[d] = Wide(ep[d][i]);
+            il[d] = Wide(lp[d][i]);
         }
         let (mut ne, mut nl) = ([F8::ZERO; 3], [F8::ZERO; 3]);
         for c in 0..3 {
-            ne[c] = F8(ep[D + c][i]);
-            nl[c] = F8(lp[D + c][i]);
+            ne[c] = Wide(ep[D + c][i]);
+            nl[c] = Wide(lp[D + c][i]);
         }
         let mut q = 0;
         macro_rules! add {
             ($v:expr) => {{
                 let s = &mut cs[q][i];
-                *s = (F8(*s) + $v).0;
+                *s = (Wide(*s) + $v).0;
                 q += 1;
             }};
         }
@@ -488,11 +488,11 @@ fn coefficients<const D: usize>(
     // only matters when rounding makes Σ slightly indefinite, and keeps every output finite.
     let floor = F8::splat(0.5 * eps[..D].iter().fold(f32::INFINITY, |m, &e| m.min(e)));
     for i in i0..i1 {
-        let inv_n = F8(inv_wx[i]) * F8::splat(inv_wy);
+        let inv_n = Wide(inv_wx[i]) * F8::splat(inv_wy);
         let sums = &rowsum[(i - i0) * nq..(i - i0 + 1) * nq];
         let mut mean = [F8::ZERO; MAX_Q];
         for q in 0..nq {
-            mean[q] = F8(sums[q]) * inv_n;
+            mean[q] = Wide(sums[q]) * inv_n;
         }
         let mut mi = [F8::ZERO; D];
         mi.copy_from_slice(&mean[..D]);
@@ -576,7 +576,7 @@ fn coefficients<const D: usize>(
 #[inline(always)]
 fn vertical2(colsum2: &mut [Chunk], e: &[Chunk], l: &[Chunk]) {
     for ((s, e), l) in colsum2.iter_mut().zip(e).zip(l) {
-        *s = (F8(*s) + (F8(*e) - F8(*l))).0;
+        *s = (Wide(*s) + (Wide(*e) - Wide(*l))).0;
     }
 }
 
@@ -619,10 +619,10 @@ fn output_value<const D: usize>(
 ) -> F8 {
     let nab = 3 * D + 3;
     let sums = &cs[i * nab..(i + 1) * nab];
-    let inv_n = F8(inv_wx[i]) * F8::splat(inv_wy);
-    let mut v = F8(sums[3 * D + c]);
+    let inv_n = Wide(inv_wx[i]) * F8::splat(inv_wy);
+    let mut v = Wide(sums[3 * D + c]);
     for d in 0..D {
-        v += F8(sums[c * D + d]) * F8(g[d][i]);
+        v += Wide(sums[c * D + d]) * Wide(g[d][i]);
     }
     v * inv_n
 }

@@ -15,55 +15,58 @@ pub(crate) const LANES: usize = 8;
 /// Eight f32 as stored in row buffers (`Vec<Chunk>` flattens to `&[f32]` for unaligned access).
 pub(crate) type Chunk = [f32; LANES];
 
-/// Eight f32 lanes.
+/// `N` f32 lanes: eight ([`F8`]) in every kernel, sixteen in the AVX-512 build of A-Trous.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct F8(pub [f32; LANES]);
+pub(crate) struct Wide<const N: usize>(pub [f32; N]);
 
-impl F8 {
-    pub(crate) const ZERO: F8 = F8([0.0; LANES]);
+/// Eight f32 lanes.
+pub(crate) type F8 = Wide<LANES>;
+
+impl<const N: usize> Wide<N> {
+    pub(crate) const ZERO: Self = Wide([0.0; N]);
 
     #[inline(always)]
-    pub(crate) fn splat(v: f32) -> F8 {
-        F8([v; LANES])
+    pub(crate) fn splat(v: f32) -> Self {
+        Wide([v; N])
     }
 
-    /// `s[i..i + 8]`.
+    /// `s[i..i + N]`.
     #[inline(always)]
-    pub(crate) fn load(s: &[f32], i: usize) -> F8 {
-        let mut a = [0.0; LANES];
-        a.copy_from_slice(&s[i..i + LANES]);
-        F8(a)
+    pub(crate) fn load(s: &[f32], i: usize) -> Self {
+        let mut a = [0.0; N];
+        a.copy_from_slice(&s[i..i + N]);
+        Wide(a)
     }
 
     /// Lane-wise maximum; NaN lanes of `self` become `o`.
     #[inline(always)]
-    pub(crate) fn max(self, o: F8) -> F8 {
+    pub(crate) fn max(self, o: Self) -> Self {
         let mut r = o.0;
-        for i in 0..LANES {
+        for i in 0..N {
             if self.0[i] > o.0[i] {
                 r[i] = self.0[i];
             }
         }
-        F8(r)
+        Wide(r)
     }
 
     /// Lane-wise minimum; NaN lanes of `self` become `o`.
     #[inline(always)]
-    pub(crate) fn min(self, o: F8) -> F8 {
+    pub(crate) fn min(self, o: Self) -> Self {
         let mut r = o.0;
-        for i in 0..LANES {
+        for i in 0..N {
             if self.0[i] < o.0[i] {
                 r[i] = self.0[i];
             }
         }
-        F8(r)
+        Wide(r)
     }
 
     /// `v − v` per lane: 0 where v is finite, NaN where it is NaN or ±∞. Summed over a plane it
     /// tells whether the plane is finite, without a branch per value.
     #[inline(always)]
     #[allow(clippy::eq_op)]
-    pub(crate) fn nan_if_not_finite(self) -> F8 {
+    pub(crate) fn nan_if_not_finite(self) -> Self {
         self - self
     }
 
@@ -71,13 +74,13 @@ impl F8 {
     /// (Floats compared, not integers, so it stays in vector registers; positions are small
     /// integers, exact in f32.)
     #[inline(always)]
-    pub(crate) fn window_mask(start: f32, lo: f32, hi: f32) -> F8 {
-        let mut r = [0.0; LANES];
+    pub(crate) fn window_mask(start: f32, lo: f32, hi: f32) -> Self {
+        let mut r = [0.0; N];
         for (l, v) in r.iter_mut().enumerate() {
             let x = start + l as f32;
             *v = if x >= lo && x < hi { 1.0 } else { 0.0 };
         }
-        F8(r)
+        Wide(r)
     }
 
     /// `2^−s` for `s >= 0` (above 126, and NaN, give 2^−126), relative error below 4e-6 (2.6e-6 from the
@@ -86,7 +89,7 @@ impl F8 {
     /// fraction in [−1/2, 1/2]. Vectorises on any x86-64 (no libm call, no `floor`).
     /// `mul_add(a, b, c)` evaluates the polynomial (see [`crate::simd::Kernels::mul_add`]).
     #[inline(always)]
-    pub(crate) fn exp2_neg(self, mul_add: impl Fn(F8, F8, F8) -> F8) -> F8 {
+    pub(crate) fn exp2_neg(self, mul_add: impl Fn(Self, Self, Self) -> Self) -> Self {
         const ROUND: f32 = 12_582_912.0; // 1.5 · 2^23: ROUND − s rounds −s to an integer
         let mut s = self;
         for v in &mut s.0 {
@@ -95,15 +98,15 @@ impl F8 {
                 *v = 126.0;
             }
         }
-        let t = F8::splat(ROUND) - s;
-        let f = (F8::splat(ROUND) - t) - s; // −s − round(−s), in [−1/2, 1/2]
-        let mut p = F8::splat(0.009_570_024);
+        let t = Self::splat(ROUND) - s;
+        let f = (Self::splat(ROUND) - t) - s; // −s − round(−s), in [−1/2, 1/2]
+        let mut p = Self::splat(0.009_570_024);
         for c in [0.055_917_68, 0.240_247_44, 0.693_121_85, 0.999_999_3] {
-            p = mul_add(p, f, F8::splat(c));
+            p = mul_add(p, f, Self::splat(c));
         }
         // t's low mantissa bits hold round(−s) in two's complement; shifted by 23 they add it
         // to p's exponent (the constant's own bits shift out of the word).
-        for i in 0..LANES {
+        for i in 0..N {
             p.0[i] = f32::from_bits(p.0[i].to_bits().wrapping_add(t.0[i].to_bits() << 23));
         }
         p
@@ -121,9 +124,9 @@ pub(crate) fn array<T: Copy + Default, const N: usize>(mut f: impl FnMut(usize) 
     a
 }
 
-impl Default for F8 {
+impl<const N: usize> Default for Wide<N> {
     fn default() -> Self {
-        F8::ZERO
+        Self::ZERO
     }
 }
 
@@ -142,15 +145,15 @@ impl NanIfNotFinite for f32 {
 
 macro_rules! lane_op {
     ($trait:ident, $method:ident, $op:tt) => {
-        impl $trait for F8 {
-            type Output = F8;
+        impl<const N: usize> $trait for Wide<N> {
+            type Output = Self;
             #[inline(always)]
-            fn $method(self, o: F8) -> F8 {
+            fn $method(self, o: Self) -> Self {
                 let mut r = self.0;
                 for (a, b) in r.iter_mut().zip(o.0) {
                     *a $op b;
                 }
-                F8(r)
+                Wide(r)
             }
         }
     };
@@ -160,9 +163,9 @@ lane_op!(Sub, sub, -=);
 lane_op!(Mul, mul, *=);
 lane_op!(Div, div, /=);
 
-impl AddAssign for F8 {
+impl<const N: usize> AddAssign for Wide<N> {
     #[inline(always)]
-    fn add_assign(&mut self, o: F8) {
+    fn add_assign(&mut self, o: Self) {
         *self = *self + o;
     }
 }
@@ -176,13 +179,24 @@ pub enum Isa {
     /// in the weighted filters), plus AVX2 intrinsics in the guided filter's horizontal box
     /// sums. Chosen when the CPU reports both.
     Avx2,
+    /// AVX2's kernels, and A-Trous in 16 lanes with AVX-512 F and VL (the same operations lane
+    /// for lane, so the same bits as AVX2). Chosen when the CPU reports AVX-512 F and VL too.
+    Avx512,
 }
 
 impl Isa {
     /// The best instruction set of this machine, detected once.
     pub fn detect() -> Isa {
         static ISA: OnceLock<Isa> = OnceLock::new();
-        *ISA.get_or_init(|| if crate::simd::Avx2::detect().is_some() { Isa::Avx2 } else { Isa::Portable })
+        *ISA.get_or_init(|| {
+            if crate::simd::Avx512::detect().is_some() {
+                Isa::Avx512
+            } else if crate::simd::Avx2::detect().is_some() {
+                Isa::Avx2
+            } else {
+                Isa::Portable
+            }
+        })
     }
 }
 

@@ -23,9 +23,10 @@
 //! All three are deterministic: rows are split into strips or bands that depend only on the
 //! image size and the parameters (or do not matter), never on the thread count, so 1 or N
 //! threads give the same bits. Each kernel is written once in portable code and compiled for
-//! the baseline and, chosen at run time, for AVX2 + FMA ([`Isa`]); `unsafe` is confined to
-//! `simd.rs` (the AVX2 entry points and the guided filter's box-sum intrinsics), each block with
-//! a `// SAFETY:` note. The guided filter's two builds agree bit for bit; the weighted filters'
+//! the baseline and, chosen at run time, for AVX2 + FMA ([`Isa`]; À-Trous also in 16 lanes
+//! for AVX-512, with the AVX2 build's bits); `unsafe` is confined to `simd.rs` (the AVX2 and
+//! AVX-512 entry points and the guided filter's box-sum intrinsics), each block with a
+//! `// SAFETY:` note. The guided filter's two builds agree bit for bit; the weighted filters'
 //! differ only by fused multiply-add rounding (both tested against the f64 definitions in
 //! [`oracle`]). The guided and À-Trous filters keep their row buffers in a small pool between
 //! calls (a few MB), since fresh pages cost more than the arithmetic.

@@ -5,7 +5,7 @@
 //! The planes of one row are stored side by side (row-interleaved): a kernel reading all of a
 //! pixel's features takes one slice per row and lets the compiler check its bounds once.
 
-use crate::lanes::{Chunk, F8, LANES, NanIfNotFinite};
+use crate::lanes::{F8, LANES, NanIfNotFinite, Wide};
 
 /// `count` planes of `h` rows, row-interleaved: plane k of row y starts at
 /// `(y·count + k)·stride`, with image column x at `margin + x`. Columns outside `0..w` hold
@@ -25,11 +25,17 @@ pub(crate) struct Padded {
 impl Padded {
     /// `count` zero planes for a `w`×`h` image whose kernels reach `reach` columns sideways.
     pub(crate) fn zeros(w: usize, h: usize, reach: usize, count: usize) -> Self {
-        let wp = w.div_ceil(LANES) * LANES;
-        let margin = reach.div_ceil(LANES) * LANES;
+        Self::zeros_for(LANES, w, h, reach, count)
+    }
+
+    /// [`Padded::zeros`] for kernels of `lanes` lanes: rows, margins and strides in whole
+    /// vectors of that width.
+    pub(crate) fn zeros_for(lanes: usize, w: usize, h: usize, reach: usize, count: usize) -> Self {
+        let wp = w.div_ceil(lanes) * lanes;
+        let margin = reach.div_ceil(lanes) * lanes;
         // An odd number of vectors per plane row keeps the planes of a row out of one L1 set.
-        let stride = ((margin + wp + margin) / LANES) | 1;
-        let stride = stride * LANES;
+        let stride = ((margin + wp + margin) / lanes) | 1;
+        let stride = stride * lanes;
         Self { w, h, wp, margin, stride, count, data: vec![0.0; h * count * stride] }
     }
 
@@ -42,7 +48,7 @@ impl Padded {
             let row = &mut block[k * stride + m..k * stride + m + w];
             let (full, tail) = s.as_chunks::<LANES>();
             for (d, c) in row.chunks_mut(LANES).zip(full) {
-                let v = F8(*c);
+                let v = Wide(*c);
                 check += v.nan_if_not_finite();
                 for (d, &v) in d.iter_mut().zip(c) {
                     *d = f(v);
@@ -71,17 +77,19 @@ impl Padded {
     }
 }
 
-/// The `wp` floats of `block` from `start` on, as vectors: views of one row that are all
-/// `wp / 8` long, so that indexing them by a vector index needs no further bounds check.
+/// The `wp` floats of `block` from `start` on, as vectors of `N` lanes: views of one row
+/// that are all `wp / N` long, so that indexing them by a vector index needs no further
+/// bounds check.
 #[inline(always)]
-pub(crate) fn view(block: &[f32], start: usize, wp: usize) -> &[Chunk] {
-    block[start..start + wp].as_chunks::<LANES>().0
+pub(crate) fn view<const N: usize>(block: &[f32], start: usize, wp: usize) -> &[[f32; N]] {
+    block[start..start + wp].as_chunks::<N>().0
 }
 
-/// The vectors i whose pixels x = 8i.. and partners x + dx.. are all inside `0..w`.
+/// The vectors i (of `lanes` lanes) whose pixels x = lanes·i.. and partners x + dx.. are all
+/// inside `0..w`.
 #[inline(always)]
-pub(crate) fn inner_vectors(w: usize, dx: isize) -> std::ops::Range<usize> {
+pub(crate) fn inner_vectors(lanes: usize, w: usize, dx: isize) -> std::ops::Range<usize> {
     let lo = (-dx).max(0) as usize;
     let hi = w.saturating_sub(dx.max(0) as usize);
-    lo.div_ceil(LANES)..hi / LANES
+    lo.div_ceil(lanes)..hi / lanes
 }

@@ -13,7 +13,7 @@
 #![allow(unsafe_code)]
 
 use crate::Isa;
-use crate::lanes::{Chunk, F8};
+use crate::lanes::{Chunk, LANES, Wide};
 
 /// The operations whose implementation differs per instruction set.
 pub(crate) trait Kernels: Copy + Send + Sync {
@@ -31,11 +31,11 @@ pub(crate) trait Kernels: Copy + Send + Sync {
     );
 
     /// `a · b + c`: two roundings portably, one (a fused multiply-add) with AVX2 + FMA.
-    fn mul_add(self, a: F8, b: F8, c: F8) -> F8;
+    fn mul_add<const N: usize>(self, a: Wide<N>, b: Wide<N>, c: Wide<N>) -> Wide<N>;
 
-    /// `2^−s` for `s >= 0`, see [`F8::exp2_neg`]; its polynomial uses [`Kernels::mul_add`].
+    /// `2^−s` for `s >= 0`, see [`Wide::exp2_neg`]; its polynomial uses [`Kernels::mul_add`].
     #[inline(always)]
-    fn exp2_neg(self, s: F8) -> F8 {
+    fn exp2_neg<const N: usize>(self, s: Wide<N>) -> Wide<N> {
         s.exp2_neg(|a, b, c| self.mul_add(a, b, c))
     }
 }
@@ -60,7 +60,7 @@ impl Kernels for Portable {
     }
 
     #[inline(always)]
-    fn mul_add(self, a: F8, b: F8, c: F8) -> F8 {
+    fn mul_add<const N: usize>(self, a: Wide<N>, b: Wide<N>, c: Wide<N>) -> Wide<N> {
         a * b + c
     }
 }
@@ -81,9 +81,10 @@ impl Avx2 {
         None
     }
 
-    /// `Some` when `isa` asks for AVX2 and the CPU has it.
+    /// `Some` when `isa` asks for AVX2 (or AVX-512, whose kernels without a 16-lane form run
+    /// their AVX2 build) and the CPU has it.
     pub(crate) fn wanted(isa: Isa) -> Option<Avx2> {
-        if isa == Isa::Avx2 { Avx2::detect() } else { None }
+        if matches!(isa, Isa::Avx2 | Isa::Avx512) { Avx2::detect() } else { None }
     }
 }
 
@@ -109,13 +110,68 @@ impl Kernels for Avx2 {
     }
 
     #[inline(always)]
-    fn mul_add(self, a: F8, b: F8, c: F8) -> F8 {
-        // Inside the `avx2,fma` wrappers this is one vfmadd; no libm call.
-        let mut r = c.0;
-        for i in 0..crate::lanes::LANES {
-            r[i] = a.0[i].mul_add(b.0[i], c.0[i]);
+    fn mul_add<const N: usize>(self, a: Wide<N>, b: Wide<N>, c: Wide<N>) -> Wide<N> {
+        fused(a, b, c)
+    }
+}
+
+/// `a · b + c` rounded once, lane by lane: inside the `fma` wrappers one vfmadd per register,
+/// no libm call.
+#[inline(always)]
+fn fused<const N: usize>(a: Wide<N>, b: Wide<N>, c: Wide<N>) -> Wide<N> {
+    let mut r = c.0;
+    for i in 0..N {
+        r[i] = a.0[i].mul_add(b.0[i], c.0[i]);
+    }
+    Wide(r)
+}
+
+/// Proof that this CPU runs AVX-512 (F and VL) besides AVX2 and FMA (only
+/// [`Avx512::detect`] makes one). Kernels with a 16-lane form (A-Trous) run it in an
+/// `avx512f` wrapper; the operations are the AVX2 build's, lane for lane, so the results are
+/// the same bits.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Avx512 {
+    _proof: (),
+}
+
+impl Avx512 {
+    /// `Some` when the CPU has AVX-512 F and VL, AVX2 and FMA.
+    pub(crate) fn detect() -> Option<Avx512> {
+        #[cfg(target_arch = "x86_64")]
+        if Avx2::detect().is_some()
+            && std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512vl")
+        {
+            return Some(Avx512 { _proof: () });
         }
-        F8(r)
+        None
+    }
+
+    /// `Some` when `isa` asks for AVX-512 and the CPU has it.
+    pub(crate) fn wanted(isa: Isa) -> Option<Avx512> {
+        if isa == Isa::Avx512 { Avx512::detect() } else { None }
+    }
+}
+
+impl Kernels for Avx512 {
+    #[inline(always)]
+    fn hbox(
+        self,
+        src: &[Chunk],
+        s8: usize,
+        n: usize,
+        dst: &mut [Chunk],
+        stride: usize,
+        range: (usize, usize),
+        r: usize,
+    ) {
+        Avx2 { _proof: self._proof }.hbox(src, s8, n, dst, stride, range, r);
+    }
+
+    #[inline(always)]
+    fn mul_add<const N: usize>(self, a: Wide<N>, b: Wide<N>, c: Wide<N>) -> Wide<N> {
+        fused(a, b, c)
     }
 }
 
@@ -147,10 +203,35 @@ avx2_entry!(
     /// A band of rows of the cross-bilateral filter ([`crate::bilateral::band`]).
     bilateral_band => crate::bilateral::band, (job: crate::bilateral::BandJob<'_>)
 );
-avx2_entry!(
-    /// A band of rows of one À-Trous iteration ([`crate::atrous::band`]).
-    atrous_band => crate::atrous::band, (job: crate::atrous::BandJob<'_>)
-);
+/// The lanes per vector that [`atrous_band`] runs with for `isa` on this CPU: the width its
+/// planes must be laid out for ([`crate::padded::Padded::zeros_for`]).
+pub(crate) fn atrous_lanes(isa: Isa) -> usize {
+    if Avx512::wanted(isa).is_some() { 16 } else { LANES }
+}
+
+/// A band of rows of one À-Trous iteration ([`crate::atrous::band`]): 16 lanes with AVX-512,
+/// else 8 with AVX2 or portably (planes laid out for [`atrous_lanes`]).
+pub(crate) fn atrous_band(isa: Isa, job: crate::atrous::BandJob<'_>) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(k) = Avx512::wanted(isa) {
+        #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
+        fn avx512(k: Avx512, job: crate::atrous::BandJob<'_>) {
+            crate::atrous::band::<_, 16>(k, job)
+        }
+        // SAFETY: `k` exists only if the CPU reported AVX-512 F and VL, AVX2 and FMA.
+        return unsafe { avx512(k, job) };
+    }
+    #[cfg(target_arch = "x86_64")]
+    if let Some(k) = Avx2::wanted(isa) {
+        #[target_feature(enable = "avx2,fma")]
+        fn avx2(k: Avx2, job: crate::atrous::BandJob<'_>) {
+            crate::atrous::band::<_, LANES>(k, job)
+        }
+        // SAFETY: `k` exists only if the CPU reported AVX2 and FMA.
+        return unsafe { avx2(k, job) };
+    }
+    crate::atrous::band::<_, LANES>(Portable, job)
+}
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {

@@ -57,7 +57,7 @@ fn a_constant_stays_constant_under_every_filter() {
         scene.input[c].fill(level);
     }
     for filter in all_filters() {
-        for isa in [Isa::Portable, Isa::Avx2] {
+        for isa in [Isa::Portable, Isa::Avx2, Isa::Avx512] {
             let out = apply_with(isa, &filter, scene.input(), &scene.guide()).expect("valid");
             for (c, level) in [0.25f32, 3.0, 0.0].into_iter().enumerate() {
                 // The guided filter's a_k is 0 only up to f32 rounding of cov(I, N) (about 1e-7
@@ -231,7 +231,7 @@ fn bad_values_are_reported_by_plane_and_first_pixel() {
             target[20 * 61 + 7] = bad;
             target[20 * 40 + 11] = bad;
             for filter in &filters {
-                for isa in [Isa::Portable, Isa::Avx2] {
+                for isa in [Isa::Portable, Isa::Avx2, Isa::Avx512] {
                     let err = apply_with(isa, filter, scene.input(), &scene.guide()).expect_err("bad value");
                     let want = format!("{name} is not finite at pixel (11, 40)");
                     assert!(err.to_string().starts_with(&want), "{filter:?}: {err}");
