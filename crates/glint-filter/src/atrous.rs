@@ -39,12 +39,14 @@ const FORWARD: [(isize, usize); 12] =
     [(1, 0), (2, 0), (-2, 1), (-1, 1), (0, 1), (1, 1), (2, 1), (-2, 2), (-1, 2), (0, 2), (1, 2), (2, 2)];
 
 /// The unit of σc: the standard deviation of the input's finite values over all three planes
-/// (1 when there are none or they are all equal), summed in f64 in a fixed order. So the filter
-/// commutes with `s·N + t` (s > 0) and one σc suits any exposure.
+/// (1 when there are none or they are all equal), summed in f64: per block of
+/// [`SCALE_BLOCK`] values in parallel, the blocks' sums then added in order, so the result does
+/// not depend on the thread count. So the filter commutes with `s·N + t` (s > 0) and one σc
+/// suits any exposure.
 pub fn colour_scale(input: [&[f32]; 3]) -> f32 {
-    let (mut sum, mut sum2, mut n) = (0.0f64, 0.0f64, 0u64);
-    for plane in input {
-        for &v in plane {
+    let block = |values: &[f32]| {
+        let (mut sum, mut sum2, mut n) = (0.0f64, 0.0f64, 0u64);
+        for &v in values {
             if v.is_finite() {
                 let v = f64::from(v);
                 sum += v;
@@ -52,6 +54,15 @@ pub fn colour_scale(input: [&[f32]; 3]) -> f32 {
                 n += 1;
             }
         }
+        (sum, sum2, n)
+    };
+    let blocks: Vec<(f64, f64, u64)> =
+        input.par_iter().flat_map(|plane| plane.par_chunks(SCALE_BLOCK).map(block)).collect();
+    let (mut sum, mut sum2, mut n) = (0.0f64, 0.0f64, 0u64);
+    for (s, s2, k) in blocks {
+        sum += s;
+        sum2 += s2;
+        n += k;
     }
     if n == 0 {
         return 1.0;
@@ -60,6 +71,47 @@ pub fn colour_scale(input: [&[f32]; 3]) -> f32 {
     let sd = ((sum2 / n as f64 - mean * mean).max(0.0)).sqrt() as f32;
     if sd > 0.0 && sd.is_finite() { sd } else { 1.0 }
 }
+
+/// Values per block of [`colour_scale`]'s sums.
+const SCALE_BLOCK: usize = 1 << 15;
+
+/// The filter's planes (scaled guide, colour, next colour), kept between calls when the next
+/// call has the same layout: a 1024 × 768 frame's are 31 MB, whose fresh pages cost more than
+/// an iteration. Outside the image they stay zero (the bands and [`Padded::fill`] write only
+/// image pixels), so a kept plane set is as good as a new one once filled.
+static PLANES: Mutex<Vec<Padded>> = Mutex::new(Vec::new());
+
+/// `count` planes for this layout: kept ones if the pool has them, else new zeros.
+fn take_planes(lanes: usize, w: usize, h: usize, reach: usize, count: usize) -> Padded {
+    let want = Padded::zeros_for(lanes, w, 0, reach, count);
+    let fits = |p: &Padded| {
+        (p.w, p.h, p.wp, p.margin, p.stride, p.count) == (w, h, want.wp, want.margin, want.stride, count)
+    };
+    if let Ok(mut pool) = PLANES.lock()
+        && let Some(i) = pool.iter().position(fits)
+    {
+        return pool.swap_remove(i);
+    }
+    Padded::zeros_for(lanes, w, h, reach, count)
+}
+
+/// Keep `planes` for the next call, dropping any kept for another layout: images up to
+/// [`KEPT_PIXELS`] (interactive sizes; a larger frame's planes are freed), and at most three
+/// calls' worth (filters running side by side).
+fn keep_planes(planes: [Padded; 3]) {
+    if planes[0].w * planes[0].h > KEPT_PIXELS {
+        return;
+    }
+    if let Ok(mut pool) = PLANES.lock() {
+        let layout = |p: &Padded| (p.w, p.h, p.wp, p.margin, p.stride);
+        pool.retain(|p| layout(p) == layout(&planes[0]));
+        pool.extend(planes);
+        pool.truncate(9);
+    }
+}
+
+/// The largest image whose planes [`keep_planes`] keeps: 2048 × 2048 (168 MB of planes).
+const KEPT_PIXELS: usize = 1 << 22;
 
 pub(crate) fn atrous_into_named(
     isa: Isa,
@@ -86,7 +138,7 @@ pub(crate) fn atrous_into_named(
     let reach = (2usize << (p.iterations - 1)).min(w + LANES);
     // Rows in whole vectors of the width the kernel runs (16 lanes with AVX-512).
     let lanes = simd::atrous_lanes(isa);
-    let mut geo = Padded::zeros_for(lanes, w, h, reach, 4);
+    let mut geo = take_planes(lanes, w, h, reach, 4);
     let kn = root / p.sigma_normal;
     let mut finite = true;
     for (k, plane) in guide.normal.iter().enumerate() {
@@ -94,15 +146,16 @@ pub(crate) fn atrous_into_named(
     }
     let kz = root / p.sigma_depth;
     finite &= geo.fill(3, guide.depth, |z| z.min(1.0) * kz);
-    let mut cur = Padded::zeros_for(lanes, w, h, reach, 3);
+    let mut cur = take_planes(lanes, w, h, reach, 3);
     let mut kc = root / (p.sigma_colour * colour_scale(input));
     for (k, plane) in input.iter().enumerate() {
         finite &= cur.fill(k, plane, |v| v * kc);
     }
     if !finite {
+        keep_planes([geo, cur, take_planes(lanes, w, h, reach, 3)]);
         return check::finite(input, guide, names);
     }
-    let mut next = cur.clone();
+    let mut next = take_planes(lanes, w, h, reach, 3);
     // −log₂ h_ab: the exponent offset of each forward tap, and of the centre.
     let hk = [1.0f32, 4.0, 6.0, 4.0, 1.0].map(|v| v / 16.0);
     let offset = FORWARD.map(|(tx, ty)| -(hk[(tx + 2) as usize] * hk[ty + 2]).log2());
@@ -124,10 +177,11 @@ pub(crate) fn atrous_into_named(
         kc *= 2.0;
     }
     for (k, dst) in out.into_iter().enumerate() {
-        for (y, d) in dst.chunks_exact_mut(w).enumerate() {
+        dst.par_chunks_exact_mut(w).enumerate().with_min_len(16).for_each(|(y, d)| {
             d.copy_from_slice(&cur.row(k, y)[cur.margin..cur.margin + w]);
-        }
+        });
     }
+    keep_planes([geo, cur, next]);
     Ok(())
 }
 

@@ -29,7 +29,8 @@
 //! `// SAFETY:` note. The guided filter's two builds agree bit for bit; the weighted filters'
 //! differ only by fused multiply-add rounding (both tested against the f64 definitions in
 //! [`oracle`]). The guided and À-Trous filters keep their row buffers in a small pool between
-//! calls (a few MB), since fresh pages cost more than the arithmetic.
+//! calls (a few MB), and À-Trous its padded planes too (images up to 4 Mpixels), since fresh
+//! pages cost more than the arithmetic.
 #![deny(unsafe_code)]
 // Index loops over lanes, colours and small matrices read like the equations they implement.
 #![allow(clippy::needless_range_loop)]

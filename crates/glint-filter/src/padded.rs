@@ -5,6 +5,8 @@
 //! The planes of one row are stored side by side (row-interleaved): a kernel reading all of a
 //! pixel's features takes one slice per row and lets the compiler check its bounds once.
 
+use rayon::prelude::*;
+
 use crate::lanes::{F8, LANES, NanIfNotFinite, Wide};
 
 /// `count` planes of `h` rows, row-interleaved: plane k of row y starts at
@@ -39,12 +41,12 @@ impl Padded {
         Self { w, h, wp, margin, stride, count, data: vec![0.0; h * count * stride] }
     }
 
-    /// Plane `k` := `f(src)` inside the image. Returns whether every value of `src` was
-    /// finite (checked on the way: `v − v` is 0 exactly when v is finite).
-    pub(crate) fn fill(&mut self, k: usize, src: &[f32], f: impl Fn(f32) -> f32) -> bool {
+    /// Plane `k` := `f(src)` inside the image, rows in parallel. Returns whether every value of
+    /// `src` was finite (checked on the way: `v − v` is 0 exactly when v is finite).
+    pub(crate) fn fill(&mut self, k: usize, src: &[f32], f: impl Fn(f32) -> f32 + Sync) -> bool {
         let (w, m, stride) = (self.w, self.margin, self.stride);
-        let mut check = F8::ZERO;
-        for (block, s) in self.data.chunks_exact_mut(self.count * stride).zip(src.chunks_exact(w)) {
+        let row_finite = |(block, s): (&mut [f32], &[f32])| {
+            let mut check = F8::ZERO;
             let row = &mut block[k * stride + m..k * stride + m + w];
             let (full, tail) = s.as_chunks::<LANES>();
             for (d, c) in row.chunks_mut(LANES).zip(full) {
@@ -58,8 +60,10 @@ impl Padded {
                 check.0[0] += v.nan_if_not_finite();
                 *d = f(v);
             }
-        }
-        check == F8::ZERO
+            check == F8::ZERO
+        };
+        let rows = self.data.par_chunks_exact_mut(self.count * stride).zip(src.par_chunks_exact(w));
+        rows.with_min_len(16).map(row_finite).reduce(|| true, |a, b| a && b)
     }
 
     /// All planes of row `y`, side by side.
