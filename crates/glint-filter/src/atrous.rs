@@ -84,9 +84,8 @@ static PLANES: Mutex<Vec<Padded>> = Mutex::new(Vec::new());
 /// `count` planes for this layout: kept ones if the pool has them, else new zeros.
 fn take_planes(lanes: usize, w: usize, h: usize, reach: usize, count: usize) -> Padded {
     let want = Padded::zeros_for(lanes, w, 0, reach, count);
-    let fits = |p: &Padded| {
-        (p.w, p.h, p.wp, p.margin, p.stride, p.count) == (w, h, want.wp, want.margin, want.stride, count)
-    };
+    let fits =
+        |p: &Padded| (p.w, p.h, p.wp, p.margin, p.stride, p.count) == (w, h, want.wp, want.margin, want.stride, count);
     if let Ok(mut pool) = PLANES.lock()
         && let Some(i) = pool.iter().position(fits)
     {
@@ -167,7 +166,7 @@ pub(crate) fn atrous_into_named(
         let factor = if last { 1.0 / kc } else { 2.0 };
         let step = 1usize << it;
         // Bands tall enough that the 2·step rows recomputed above each cost at most ~1/4.
-        let band = (8 * step).clamp(16, h.div_ceil(4).max(16));
+        let band = (32 * step).clamp(64, h.div_ceil(4).max(64));
         let rows = band * 3 * cur.stride;
         next.data.par_chunks_mut(rows).enumerate().for_each(|(i, out)| {
             let job = BandJob { geo: &geo, cur: &cur, step, factor, offset, centre, y0: i * band, out };
@@ -249,9 +248,14 @@ pub(crate) fn band<K: Kernels, const N: usize>(k: K, job: BandJob<'_>) {
     let first = y0.saturating_sub(2 * step);
     let slots = (2 * step + 1).min(y1 - first);
     let mut store = RINGS.lock().ok().and_then(|mut r| r.pop()).unwrap_or_default();
-    store.clear();
+    // Each weight row is written inside the image before it is read; its margins (read by
+    // the border vectors' backward taps) must be zero, which is all a reused ring needs.
     store.resize(slots * 12 * stride, 0.0);
     let ring = store.as_chunks_mut::<N>().0;
+    for row in ring.chunks_exact_mut(s8) {
+        row[..m8].fill([0.0; N]);
+        row[m8 + n8..].fill([0.0; N]);
+    }
     // Per row and vector: Σw·c (3) and Σw, side by side, between the two passes.
     let mut sums = vec![[[0.0f32; N]; 4]; n8];
     let wc = k.exp2_neg(Wide::<N>::splat(centre));
@@ -366,8 +370,13 @@ pub(crate) fn band<K: Kernels, const N: usize>(k: K, job: BandJob<'_>) {
             for c in 0..3 {
                 let v = (s[c] * scale).0;
                 let x = c * stride + m + i * N;
-                let n = N.min(w - i * N);
-                row[x..x + n].copy_from_slice(&v[..n]);
+                let n = w - i * N;
+                if n >= N {
+                    // A whole vector: one store, not a copy of variable length.
+                    row[x..x + N].copy_from_slice(&v);
+                } else {
+                    row[x..x + n].copy_from_slice(&v[..n]);
+                }
             }
         }
     }
