@@ -168,7 +168,7 @@ pub(crate) fn atrous_into_named(
         // Bands tall enough that the 2·step rows recomputed above each cost at most ~1/4.
         let band = (32 * step).clamp(64, h.div_ceil(4).max(64));
         let rows = band * 3 * cur.stride;
-        next.data.par_chunks_mut(rows).enumerate().for_each(|(i, out)| {
+        next.planes_mut().par_chunks_mut(rows).enumerate().for_each(|(i, out)| {
             let job = BandJob { geo: &geo, cur: &cur, step, factor, offset, centre, y0: i * band, out };
             simd::atrous_band(isa, job);
         });
@@ -250,8 +250,10 @@ pub(crate) fn band<K: Kernels, const N: usize>(k: K, job: BandJob<'_>) {
     let mut store = RINGS.lock().ok().and_then(|mut r| r.pop()).unwrap_or_default();
     // Each weight row is written inside the image before it is read; its margins (read by
     // the border vectors' backward taps) must be zero, which is all a reused ring needs.
-    store.resize(slots * 12 * stride, 0.0);
-    let ring = store.as_chunks_mut::<N>().0;
+    // From the first 64-byte line on (the weights then store whole lines).
+    store.resize(slots * 12 * stride + 16, 0.0);
+    let line = (16 - (store.as_ptr() as usize / size_of::<f32>()) % 16) % 16;
+    let ring = store[line..line + slots * 12 * stride].as_chunks_mut::<N>().0;
     for row in ring.chunks_exact_mut(s8) {
         row[..m8].fill([0.0; N]);
         row[m8 + n8..].fill([0.0; N]);

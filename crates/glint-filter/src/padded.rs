@@ -11,8 +11,9 @@ use crate::lanes::{F8, LANES, NanIfNotFinite, Wide};
 
 /// `count` planes of `h` rows, row-interleaved: plane k of row y starts at
 /// `(y·count + k)·stride`, with image column x at `margin + x`. Columns outside `0..w` hold
-/// zeros.
-#[derive(Clone, Debug)]
+/// zeros. The planes start on a 64-byte line, so with margins and strides in whole vectors
+/// every vector at a pixel offset that is a multiple of the width loads from one cache line.
+#[derive(Debug)]
 pub(crate) struct Padded {
     pub w: usize,
     pub h: usize,
@@ -21,8 +22,13 @@ pub(crate) struct Padded {
     pub margin: usize,
     pub stride: usize,
     pub count: usize,
-    pub data: Vec<f32>,
+    /// The planes, from `start` on (the allocation's first 64-byte line boundary).
+    data: Vec<f32>,
+    start: usize,
 }
+
+/// Floats per cache line.
+const LINE: usize = 16;
 
 impl Padded {
     /// `count` zero planes for a `w`×`h` image whose kernels reach `reach` columns sideways.
@@ -38,7 +44,15 @@ impl Padded {
         // An odd number of vectors per plane row keeps the planes of a row out of one L1 set.
         let stride = ((margin + wp + margin) / lanes) | 1;
         let stride = stride * lanes;
-        Self { w, h, wp, margin, stride, count, data: vec![0.0; h * count * stride] }
+        let data = vec![0.0; h * count * stride + LINE];
+        let start = (LINE - (data.as_ptr() as usize / size_of::<f32>()) % LINE) % LINE;
+        Self { w, h, wp, margin, stride, count, data, start }
+    }
+
+    /// All planes, row after row.
+    pub(crate) fn planes_mut(&mut self) -> &mut [f32] {
+        let len = self.h * self.count * self.stride;
+        &mut self.data[self.start..self.start + len]
     }
 
     /// Plane `k` := `f(src)` inside the image, rows in parallel. Returns whether every value of
@@ -62,7 +76,8 @@ impl Padded {
             }
             check == F8::ZERO
         };
-        let rows = self.data.par_chunks_exact_mut(self.count * stride).zip(src.par_chunks_exact(w));
+        let count = self.count;
+        let rows = self.planes_mut().par_chunks_exact_mut(count * stride).zip(src.par_chunks_exact(w));
         rows.with_min_len(16).map(row_finite).reduce(|| true, |a, b| a && b)
     }
 
@@ -70,13 +85,13 @@ impl Padded {
     #[inline(always)]
     pub(crate) fn block(&self, y: usize) -> &[f32] {
         let n = self.count * self.stride;
-        &self.data[y * n..(y + 1) * n]
+        &self.data[self.start + y * n..self.start + (y + 1) * n]
     }
 
     /// The padded row `y` of plane `k`.
     #[inline(always)]
     pub(crate) fn row(&self, k: usize, y: usize) -> &[f32] {
-        let start = (y * self.count + k) * self.stride;
+        let start = self.start + (y * self.count + k) * self.stride;
         &self.data[start..start + self.stride]
     }
 }
