@@ -14,8 +14,11 @@
 //! overlaps the next tap's); its backward pass adds the stored weights and writes the output.
 //!
 //! The colour sigma halves each iteration, which in scaled units is a factor 2 on the colour
-//! written for the next one (exact in binary floating point). Taps outside the image get
-//! weight zero (rows are skipped, columns masked near the border). Rows are split into bands
+//! written for the next one (exact in binary floating point). Taps outside the image count
+//! for nothing: rows outside are skipped; columns outside hold depth +inf, so a pair with one
+//! end there gets the exponential's floor 2^−126, which disappears in f32 sums whose centre
+//! weight alone is 0.14 (and its colour there is 0): the same bits as a weight of zero, with no
+//! mask in the loop. Rows are split into bands
 //! for the threads; a band recomputes the forward taps of the 2·2^i rows above it, and since
 //! every pixel adds its contributions in an order that does not depend on the band, any split
 //! gives the same bits.
@@ -26,7 +29,7 @@ use rayon::prelude::*;
 
 use crate::check::{self, Names};
 use crate::lanes::{LANES, Wide, array};
-use crate::padded::{Padded, inner_vectors, view};
+use crate::padded::{Padded, view};
 use crate::simd::{self, Kernels};
 use crate::{AtrousParams, FilterError, Guide, Isa};
 
@@ -145,6 +148,8 @@ pub(crate) fn atrous_into_named(
     }
     let kz = root / p.sigma_depth;
     finite &= geo.fill(3, guide.depth, |z| z.min(1.0) * kz);
+    // Outside the image depth is +inf, so no weight pairs a pixel with one there.
+    geo.set_outside(3, f32::INFINITY);
     let mut cur = take_planes(lanes, w, h, reach, 3);
     let mut kc = root / (p.sigma_colour * colour_scale(input));
     for (k, plane) in input.iter().enumerate() {
@@ -215,10 +220,6 @@ struct Tap<'a, const N: usize> {
     colour: &'a [[f32; N]],
     /// Where the tap's weights go in the ring slot of the row.
     weights: usize,
-    /// Vectors whose lanes and partners all lie inside the image (no mask needed).
-    inner: (usize, usize),
-    /// The tap's column offset in pixels, as a float for the border mask.
-    dx: f32,
     /// −log₂ h of the tap, the start of its exponent.
     offset: f32,
 }
@@ -261,7 +262,6 @@ pub(crate) fn band<K: Kernels, const N: usize>(k: K, job: BandJob<'_>) {
     // Per row and vector: Σw·c (3) and Σw, side by side, between the two passes.
     let mut sums = vec![[[0.0f32; N]; 4]; n8];
     let wc = k.exp2_neg(Wide::<N>::splat(centre));
-    let w_f = w as f32;
     let at = |p: usize, dx: isize| (p * stride + m).wrapping_add_signed(dx);
     for y in first..y1 {
         let slot = (y - first) % slots * 12 * s8;
@@ -278,13 +278,10 @@ pub(crate) fn band<K: Kernels, const N: usize>(k: K, job: BandJob<'_>) {
                 return Tap::default();
             }
             live[o] = true;
-            let inner = inner_vectors(N, w, dx);
             Tap {
                 geo: view(geo.block(yy), at(0, dx), span(4)),
                 colour: view(cur.block(yy), at(0, dx), span(3)),
                 weights: o * s8 + m8,
-                inner: (inner.start, inner.end),
-                dx: dx as f32,
                 offset: offset[o],
             }
         });
@@ -318,12 +315,10 @@ pub(crate) fn band<K: Kernels, const N: usize>(k: K, job: BandJob<'_>) {
                 let s01 = k.mul_add(d[1], d[1], k.mul_add(d[0], d[0], Wide::splat(t.offset)));
                 let s23 = k.mul_add(d[3], d[3], d[2] * d[2]);
                 let s45 = k.mul_add(d[5], d[5], d[4] * d[4]);
-                let mut wt = k.exp2_neg((s01 + s23) + (s45 + d[6] * d[6]));
-                if i < t.inner.0 || i >= t.inner.1 {
-                    // Lane l pairs column x + l with column x + dx + l: both must be in the image.
-                    let x = (i * N) as f32;
-                    wt = wt * Wide::<N>::window_mask(x + t.dx, 0.0, w_f) * Wide::<N>::window_mask(x, 0.0, w_f);
-                }
+                // A partner outside the image has depth +inf: s is +inf or NaN, and 2^−s its
+                // floor, 2^−126 (see `exp2_neg`), whose share of Σw and Σw·c is below f32's
+                // rounding (the centre weight alone is 0.14, and colour is 0 there).
+                let wt = k.exp2_neg((s01 + s23) + (s45 + d[6] * d[6]));
                 weights[t.weights + i] = wt.0;
                 for c in 0..3 {
                     s[c] = k.mul_add(wt, tap[c], s[c]);
@@ -336,7 +331,7 @@ pub(crate) fn band<K: Kernels, const N: usize>(k: K, job: BandJob<'_>) {
             continue;
         }
         // Backward taps: the weight the neighbour q − o stored, times that neighbour's colour.
-        // Outside the image the stored weights are zero (margins, masked lanes).
+        // Outside the image the stored weights are zero (margins, dead rows) or 2^−126.
         let mut live = [false; 12];
         let back: [Back<'_, N>; 12] = array(|o| {
             let (tx, ty) = FORWARD[o];

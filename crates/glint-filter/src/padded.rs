@@ -11,7 +11,7 @@ use crate::lanes::{F8, LANES, NanIfNotFinite, Wide};
 
 /// `count` planes of `h` rows, row-interleaved: plane k of row y starts at
 /// `(y·count + k)·stride`, with image column x at `margin + x`. Columns outside `0..w` hold
-/// zeros. The planes start on a 64-byte line, so with margins and strides in whole vectors
+/// zeros (or what [`Padded::set_outside`] put there). The planes start on a 64-byte line, so with margins and strides in whole vectors
 /// every vector at a pixel offset that is a multiple of the width loads from one cache line.
 #[derive(Debug)]
 pub(crate) struct Padded {
@@ -81,6 +81,17 @@ impl Padded {
         rows.with_min_len(16).map(row_finite).reduce(|| true, |a, b| a && b)
     }
 
+    /// Plane `k` := `v` outside the image: its margins and the columns from `w` to the next
+    /// whole vector, on every row.
+    pub(crate) fn set_outside(&mut self, k: usize, v: f32) {
+        let (w, m, stride, count) = (self.w, self.margin, self.stride, self.count);
+        self.planes_mut().par_chunks_exact_mut(count * stride).with_min_len(16).for_each(|block| {
+            let row = &mut block[k * stride..(k + 1) * stride];
+            row[..m].fill(v);
+            row[m + w..].fill(v);
+        });
+    }
+
     /// All planes of row `y`, side by side.
     #[inline(always)]
     pub(crate) fn block(&self, y: usize) -> &[f32] {
@@ -102,13 +113,4 @@ impl Padded {
 #[inline(always)]
 pub(crate) fn view<const N: usize>(block: &[f32], start: usize, wp: usize) -> &[[f32; N]] {
     block[start..start + wp].as_chunks::<N>().0
-}
-
-/// The vectors i (of `lanes` lanes) whose pixels x = lanes·i.. and partners x + dx.. are all
-/// inside `0..w`.
-#[inline(always)]
-pub(crate) fn inner_vectors(lanes: usize, w: usize, dx: isize) -> std::ops::Range<usize> {
-    let lo = (-dx).max(0) as usize;
-    let hi = w.saturating_sub(dx.max(0) as usize);
-    lo.div_ceil(lanes)..hi / lanes
 }
