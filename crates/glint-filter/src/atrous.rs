@@ -80,8 +80,9 @@ const SCALE_BLOCK: usize = 1 << 15;
 
 /// The filter's planes (scaled guide, colour, next colour), kept between calls when the next
 /// call has the same layout: a 1024 × 768 frame's are 31 MB, whose fresh pages cost more than
-/// an iteration. Outside the image they stay zero (the bands and [`Padded::fill`] write only
-/// image pixels), so a kept plane set is as good as a new one once filled.
+/// an iteration. Outside the image they keep what they held (zeros; the guide's depth +inf,
+/// set again every call): the bands and [`Padded::fill`] write only image pixels, so a kept
+/// plane set is as good as a new one once filled.
 static PLANES: Mutex<Vec<Padded>> = Mutex::new(Vec::new());
 
 /// `count` planes for this layout: kept ones if the pool has them, else new zeros.
@@ -100,13 +101,15 @@ fn take_planes(lanes: usize, w: usize, h: usize, reach: usize, count: usize) -> 
 /// Keep `planes` for the next call, dropping any kept for another layout: images up to
 /// [`KEPT_PIXELS`] (interactive sizes; a larger frame's planes are freed), and at most three
 /// calls' worth (filters running side by side).
-fn keep_planes(planes: [Padded; 3]) {
-    if planes[0].w * planes[0].h > KEPT_PIXELS {
+fn keep_planes<const K: usize>(planes: [Padded; K]) {
+    let Some(first) = planes.first() else { return };
+    if first.w * first.h > KEPT_PIXELS {
         return;
     }
     if let Ok(mut pool) = PLANES.lock() {
         let layout = |p: &Padded| (p.w, p.h, p.wp, p.margin, p.stride);
-        pool.retain(|p| layout(p) == layout(&planes[0]));
+        let want = layout(first);
+        pool.retain(|p| layout(p) == want);
         pool.extend(planes);
         pool.truncate(9);
     }
@@ -156,7 +159,7 @@ pub(crate) fn atrous_into_named(
         finite &= cur.fill(k, plane, |v| v * kc);
     }
     if !finite {
-        keep_planes([geo, cur, take_planes(lanes, w, h, reach, 3)]);
+        keep_planes([geo, cur]);
         return check::finite(input, guide, names);
     }
     let mut next = take_planes(lanes, w, h, reach, 3);
@@ -209,8 +212,8 @@ pub(crate) struct BandJob<'a> {
 /// A band's weight ring, reused between calls (fresh pages cost more than the arithmetic).
 static RINGS: Mutex<Vec<Vec<f32>>> = Mutex::new(Vec::new());
 
-/// One forward tap of a row: where its features are, which vectors need the border mask, and
-/// its kernel weight's exponent offset.
+/// One forward tap of a row: where its features are, where its weights go and its kernel
+/// weight's exponent offset.
 #[derive(Clone, Copy, Default)]
 struct Tap<'a, const N: usize> {
     /// The tap row's normal x, y, z and depth from the tap's column on, plane p at vector

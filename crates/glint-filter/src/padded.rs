@@ -11,8 +11,9 @@ use crate::lanes::{F8, LANES, NanIfNotFinite, Wide};
 
 /// `count` planes of `h` rows, row-interleaved: plane k of row y starts at
 /// `(y·count + k)·stride`, with image column x at `margin + x`. Columns outside `0..w` hold
-/// zeros (or what [`Padded::set_outside`] put there). The planes start on a 64-byte line, so with margins and strides in whole vectors
-/// every vector at a pixel offset that is a multiple of the width loads from one cache line.
+/// zeros (or what [`Padded::set_outside`] put there). The planes start on a 64-byte line, so
+/// with margins and strides in whole vectors every vector at a pixel offset that is a multiple
+/// of the width loads from one cache line.
 #[derive(Debug)]
 pub(crate) struct Padded {
     pub w: usize,

@@ -9,7 +9,9 @@
 //! on. The guided filter is bit-identical between the two (it never calls [`Kernels::mul_add`],
 //! and the AVX2 box sum performs the portable one's additions in the same order); the weighted
 //! filters fuse multiply-adds with FMA and agree with the portable build to float rounding
-//! (both tested).
+//! (both tested). An [`Avx512`] value (AVX-512 F and VL on top of AVX2 and FMA) runs A-Trous
+//! with 16 lanes (`Wide<16>`) in an `avx512f,avx512vl` wrapper: the same operations lane for
+//! lane, so the AVX2 build's bits (tested); its other kernels are the AVX2 ones.
 #![allow(unsafe_code)]
 
 use crate::Isa;
@@ -166,6 +168,7 @@ impl Kernels for Avx512 {
         range: (usize, usize),
         r: usize,
     ) {
+        // An AVX-512 proof is an AVX2 one too: `Avx512::detect` asked `Avx2::detect` first.
         Avx2 { _proof: self._proof }.hbox(src, s8, n, dst, stride, range, r);
     }
 
