@@ -430,6 +430,29 @@ mod tests {
     }
 
     #[test]
+    fn kept_planes_carry_nothing_from_one_call_to_the_next() {
+        // The same layout three times (and a failed call between), then the first image again:
+        // its bits must not depend on what the pooled planes held before.
+        let p = AtrousParams { iterations: 4, sigma_colour: 0.8, sigma_normal: 0.6, sigma_depth: 0.4 };
+        let filter = crate::Filter::Atrous(p);
+        let a = random_scene(53, 21, 3);
+        let mut b = random_scene(53, 21, 4);
+        let first = crate::apply(&filter, a.input(), &a.guide()).expect("valid");
+        let other = crate::apply(&filter, b.input(), &b.guide()).expect("valid");
+        b.depth[17] = f32::NAN;
+        assert!(crate::apply(&filter, b.input(), &b.guide()).is_err());
+        // A smaller image in between drops the kept planes and keeps its own.
+        let c = random_scene(9, 5, 5);
+        crate::apply(&filter, c.input(), &c.guide()).expect("valid");
+        let again = crate::apply(&filter, a.input(), &a.guide()).expect("valid");
+        let bits = |p: &Vec<f32>| p.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        for c in 0..3 {
+            assert_eq!(bits(&first[c]), bits(&again[c]), "plane {c}");
+            assert_ne!(bits(&first[c]), bits(&other[c]), "plane {c}: two images, one result");
+        }
+    }
+
+    #[test]
     fn keeps_a_depth_edge() {
         let scene = two_halves(64, 16, 32, [0.2, 0.8], [0.3, 0.6], [PLUS_Z, PLUS_Z]);
         let out = crate::atrous(scene.input(), &scene.guide(), &AtrousParams::default()).expect("valid");

@@ -115,3 +115,34 @@ impl Padded {
 pub(crate) fn view<const N: usize>(block: &[f32], start: usize, wp: usize) -> &[[f32; N]] {
     block[start..start + wp].as_chunks::<N>().0
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Padded;
+
+    #[test]
+    fn planes_start_on_a_line_and_outside_values_stay_outside() {
+        for (lanes, w, reach) in [(8, 13, 5), (16, 37, 33), (16, 64, 16)] {
+            let mut p = Padded::zeros_for(lanes, w, 3, reach, 2);
+            assert_eq!(p.block(0).as_ptr() as usize % 64, 0, "{lanes} lanes, w {w}");
+            assert_eq!((p.wp % lanes, p.margin % lanes, p.stride % lanes), (0, 0, 0));
+            let src: Vec<f32> = (0..w * 3).map(|i| i as f32).collect();
+            assert!(p.fill(1, &src, |v| v + 0.5));
+            p.set_outside(1, f32::INFINITY);
+            for y in 0..3 {
+                let row = p.row(1, y);
+                for (x, &v) in row.iter().enumerate() {
+                    let inside = x >= p.margin && x < p.margin + w;
+                    let want = if inside { (y * w + x - p.margin) as f32 + 0.5 } else { f32::INFINITY };
+                    assert_eq!(v, want, "row {y}, column {x}");
+                }
+                // The other plane keeps its zeros.
+                assert!(p.row(0, y).iter().all(|&v| v == 0.0));
+            }
+            // A non-finite value is reported.
+            let mut bad = src.clone();
+            bad[4] = f32::NAN;
+            assert!(!p.fill(0, &bad, |v| v));
+        }
+    }
+}
