@@ -41,7 +41,7 @@ use rayon::prelude::*;
 use crate::boxsum::{BLOCK, pad, tail_pad};
 use crate::check::{self, Names};
 use crate::lanes::{Chunk, F8, LANES, NanIfNotFinite, Wide, array};
-use crate::simd::{self, Kernels};
+use crate::simd::{self, BoxSum};
 use crate::{FilterError, Guide, GuideChannels, GuidedParams, Isa};
 
 /// Rec. 709 luma weights (the 1-D guide is the luma of (n + 1)/2).
@@ -242,7 +242,7 @@ impl Window {
 
 /// Runs one strip. See the module documentation.
 #[inline(always)]
-pub(crate) fn strip<const D: usize, K: Kernels>(k: K, job: StripJob<'_>) {
+pub(crate) fn strip<const D: usize, K: BoxSum>(k: K, job: StripJob<'_>) {
     let StripJob { src, lay, eps, inv_wx, y0, y1, mut out, bad } = job;
     let Layout { w, h, r, n8, s8, ps, .. } = lay;
     let nq = quantities(D);

@@ -19,6 +19,19 @@ use crate::lanes::{Chunk, LANES, Wide};
 
 /// The operations whose implementation differs per instruction set.
 pub(crate) trait Kernels: Copy + Send + Sync {
+    /// `a · b + c`: two roundings portably, one (a fused multiply-add) with AVX2 + FMA.
+    fn mul_add<const N: usize>(self, a: Wide<N>, b: Wide<N>, c: Wide<N>) -> Wide<N>;
+
+    /// `2^−s` for `s >= 0`, see [`Wide::exp2_neg`]; its polynomial uses [`Kernels::mul_add`].
+    #[inline(always)]
+    fn exp2_neg<const N: usize>(self, s: Wide<N>) -> Wide<N> {
+        s.exp2_neg(|a, b, c| self.mul_add(a, b, c))
+    }
+}
+
+/// The guided filter's horizontal box sum, per instruction set (the weighted filters do not
+/// use it, so a proof type without its own, like [`Avx512`], need not have one).
+pub(crate) trait BoxSum: Kernels {
     /// See [`crate::boxsum::hbox_portable`].
     #[allow(clippy::too_many_arguments)]
     fn hbox(
@@ -31,22 +44,13 @@ pub(crate) trait Kernels: Copy + Send + Sync {
         range: (usize, usize),
         r: usize,
     );
-
-    /// `a · b + c`: two roundings portably, one (a fused multiply-add) with AVX2 + FMA.
-    fn mul_add<const N: usize>(self, a: Wide<N>, b: Wide<N>, c: Wide<N>) -> Wide<N>;
-
-    /// `2^−s` for `s >= 0`, see [`Wide::exp2_neg`]; its polynomial uses [`Kernels::mul_add`].
-    #[inline(always)]
-    fn exp2_neg<const N: usize>(self, s: Wide<N>) -> Wide<N> {
-        s.exp2_neg(|a, b, c| self.mul_add(a, b, c))
-    }
 }
 
 /// Baseline code.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Portable;
 
-impl Kernels for Portable {
+impl BoxSum for Portable {
     #[inline(always)]
     fn hbox(
         self,
@@ -60,7 +64,9 @@ impl Kernels for Portable {
     ) {
         crate::boxsum::hbox_portable(src, s8, n, dst, stride, range, r);
     }
+}
 
+impl Kernels for Portable {
     #[inline(always)]
     fn mul_add<const N: usize>(self, a: Wide<N>, b: Wide<N>, c: Wide<N>) -> Wide<N> {
         a * b + c
@@ -90,7 +96,7 @@ impl Avx2 {
     }
 }
 
-impl Kernels for Avx2 {
+impl BoxSum for Avx2 {
     #[inline(always)]
     fn hbox(
         self,
@@ -110,7 +116,9 @@ impl Kernels for Avx2 {
         #[cfg(not(target_arch = "x86_64"))]
         crate::boxsum::hbox_portable(src, s8, n, dst, stride, range, r);
     }
+}
 
+impl Kernels for Avx2 {
     #[inline(always)]
     fn mul_add<const N: usize>(self, a: Wide<N>, b: Wide<N>, c: Wide<N>) -> Wide<N> {
         fused(a, b, c)
@@ -157,21 +165,6 @@ impl Avx512 {
 }
 
 impl Kernels for Avx512 {
-    #[inline(always)]
-    fn hbox(
-        self,
-        src: &[Chunk],
-        s8: usize,
-        n: usize,
-        dst: &mut [Chunk],
-        stride: usize,
-        range: (usize, usize),
-        r: usize,
-    ) {
-        // An AVX-512 proof is an AVX2 one too: `Avx512::detect` asked `Avx2::detect` first.
-        Avx2 { _proof: self._proof }.hbox(src, s8, n, dst, stride, range, r);
-    }
-
     #[inline(always)]
     fn mul_add<const N: usize>(self, a: Wide<N>, b: Wide<N>, c: Wide<N>) -> Wide<N> {
         fused(a, b, c)
