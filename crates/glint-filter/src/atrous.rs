@@ -87,9 +87,8 @@ static PLANES: Mutex<Vec<Padded>> = Mutex::new(Vec::new());
 
 /// `count` planes for this layout: kept ones if the pool has them, else new zeros.
 fn take_planes(lanes: usize, w: usize, h: usize, reach: usize, count: usize) -> Padded {
-    let want = Padded::zeros_for(lanes, w, 0, reach, count);
-    let fits =
-        |p: &Padded| (p.w, p.h, p.wp, p.margin, p.stride, p.count) == (w, h, want.wp, want.margin, want.stride, count);
+    let (wp, margin, stride) = Padded::layout(lanes, w, reach);
+    let fits = |p: &Padded| (p.w, p.h, p.wp, p.margin, p.stride, p.count) == (w, h, wp, margin, stride, count);
     if let Ok(mut pool) = PLANES.lock()
         && let Some(i) = pool.iter().position(fits)
     {

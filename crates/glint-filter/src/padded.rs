@@ -40,14 +40,19 @@ impl Padded {
     /// [`Padded::zeros`] for kernels of `lanes` lanes: rows, margins and strides in whole
     /// vectors of that width.
     pub(crate) fn zeros_for(lanes: usize, w: usize, h: usize, reach: usize, count: usize) -> Self {
-        let wp = w.div_ceil(lanes) * lanes;
-        let margin = reach.div_ceil(lanes) * lanes;
-        // An odd number of vectors per plane row keeps the planes of a row out of one L1 set.
-        let stride = ((margin + wp + margin) / lanes) | 1;
-        let stride = stride * lanes;
+        let (wp, margin, stride) = Self::layout(lanes, w, reach);
         let data = vec![0.0; h * count * stride + LINE];
         let start = (LINE - (data.as_ptr() as usize / size_of::<f32>()) % LINE) % LINE;
         Self { w, h, wp, margin, stride, count, data, start }
+    }
+
+    /// The padded width, margin and stride of [`Padded::zeros_for`]'s rows.
+    pub(crate) fn layout(lanes: usize, w: usize, reach: usize) -> (usize, usize, usize) {
+        let wp = w.div_ceil(lanes) * lanes;
+        let margin = reach.div_ceil(lanes) * lanes;
+        // An odd number of vectors per plane row keeps the planes of a row out of one L1 set.
+        let stride = (((margin + wp + margin) / lanes) | 1) * lanes;
+        (wp, margin, stride)
     }
 
     /// All planes, row after row.
