@@ -774,6 +774,10 @@ pub struct BenchWhittedArgs {
     /// several kernels are interleaved.
     #[arg(long, value_delimiter = ',', value_enum, default_value = "batched")]
     pub kernel: Vec<KernelArg>,
+    /// Write the first-hit AOVs (normal, albedo, depth) too, as a render to EXR does; without
+    /// it the frames hold the beauty alone, as a render to PNG does.
+    #[arg(long)]
+    pub aovs: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

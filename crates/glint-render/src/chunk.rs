@@ -22,7 +22,7 @@
 //! [`merge`] checks a set of chunks against each other (one frame, every chunk once, the
 //! shares or tiles covering it) and puts them together; every refusal names the files.
 
-use crate::film::{Film, FilmPixel};
+use crate::film::{Film, PixelRecord};
 use crate::fixed::{self, Square};
 use crate::frame::{Part, WhittedPart};
 use crate::path::{FirstSample, PathSums, PixelSums};
@@ -128,7 +128,7 @@ fn first_value(f: &FirstSample, k: usize) -> f32 {
     [f.albedo.x, f.albedo.y, f.albedo.z, f.normal.x, f.normal.y, f.normal.z, f.depth][k]
 }
 
-fn whitted_values(p: &FilmPixel) -> [f32; 11] {
+fn whitted_values(p: &PixelRecord) -> [f32; 11] {
     let (c, n, a) = (p.colour, p.normal, p.albedo);
     [c.x, c.y, c.z, n.x, n.y, n.z, a.x, a.y, a.z, p.depth, p.coverage]
 }
@@ -403,7 +403,7 @@ fn read_whitted(path: &Path, t: &ExrTable, height: u32, raw: bool) -> Result<Whi
     let pixels = (0..t.width as usize * t.height as usize)
         .map(|i| {
             let v = |k: usize| planes[k][i];
-            FilmPixel {
+            PixelRecord {
                 colour: Rgb::new(v(0), v(1), v(2)),
                 normal: Vec3::new(v(3), v(4), v(5)),
                 albedo: Rgb::new(v(6), v(7), v(8)),
@@ -452,7 +452,7 @@ enum Sum {
     /// Whitted: finished pixels placed (tiles, or a whole frame; made at the first), the
     /// records of shares of the samples kept by chunk index (they are added in sample order at
     /// the end).
-    Whitted { pixels: Option<Vec<FilmPixel>>, records: Vec<Option<Vec<FilmPixel>>> },
+    Whitted { pixels: Option<Vec<PixelRecord>>, records: Vec<Option<Vec<PixelRecord>>> },
 }
 
 /// Check that `chunks` (read one after another from the paths beside them) are every chunk of
@@ -609,14 +609,17 @@ pub fn merge(chunks: impl IntoIterator<Item = Result<(PathBuf, Chunk), ChunkErro
         Sum::Whitted { pixels, records } => {
             film.reset(w, h).map_err(|e| fail(&first_path, e))?;
             if let Some(pixels) = pixels {
-                film.pixels = pixels;
+                let mut rows = film.rows_mut();
+                for (i, p) in pixels.into_iter().enumerate() {
+                    rows.set(i, p);
+                }
             }
             if records.iter().any(Option::is_some) {
                 let mut samples = SampleSum::try_new(whole.pixels()).map_err(|e| fail(&first_path, e))?;
                 for one in records.iter().flatten().flat_map(|r| r.chunks_exact(whole.pixels().max(1))) {
                     samples.add(one);
                 }
-                samples.finish(header.total_units as u32, &mut film.pixels);
+                samples.finish(header.total_units as u32, film.rows_mut());
             }
         }
     }
@@ -673,7 +676,7 @@ fn take_in(sum: &mut Sum, path: &Path, c: Chunk, whole: Region) -> Result<(), Ch
                 records[c.index as usize] = Some(part.pixels);
             } else {
                 if pixels.is_none() {
-                    *pixels = Some(frame_buffer(path, whole, FilmPixel::default())?);
+                    *pixels = Some(frame_buffer(path, whole, PixelRecord::default())?);
                 }
                 if let Some(pixels) = pixels.as_mut() {
                     place(pixels, width, c.region, &part.pixels);
@@ -772,7 +775,7 @@ mod tests {
 
     #[test]
     fn whitted_parts_round_trip_through_their_tables() {
-        let pixel = |i: usize| FilmPixel {
+        let pixel = |i: usize| PixelRecord {
             colour: Rgb::new(i as f32, 0.5, -0.0),
             normal: Vec3::new(0.1, 0.2, i as f32),
             albedo: Rgb::splat(0.25),
@@ -835,7 +838,7 @@ mod tests {
     fn merging_adds_every_chunk_once_and_refuses_the_rest() {
         let all: Vec<_> = (0..3).map(|i| chunk(i, 3, 3)).collect();
         let merged = merge(all.iter().rev().cloned().map(Ok)).expect("merge");
-        let p = merged.film.pixels[0];
+        let p = merged.film.record(0);
         assert_eq!(merged.film.path[0].samples, 6.0);
         assert_eq!(p.coverage, 0.5);
         assert_eq!(p.depth, 2.5, "the first sample's AOVs");

@@ -13,13 +13,35 @@ use rayon::prelude::*;
 /// (the sun's radiance is about 1.6e9 W sr⁻¹ m⁻²).
 pub const MAX_SAMPLE_RADIANCE: f32 = 1e15;
 
-/// What one pixel accumulated, in every mode. Colour is the box-filtered average of its
-/// samples; normal and albedo average over the samples that hit a surface, depth too (linear
-/// eye-space distance along the view axis, +inf where no sample hit); coverage is the fraction
-/// of samples that hit. 44 bytes: the path mode's own AOVs live beside it in [`PathAovs`], so
-/// a Whitted or points frame neither writes nor first-touches them.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// The beauty of one pixel, in every mode: the box-filtered average of its samples' colour and
+/// its coverage (the fraction of samples that hit a surface, written as alpha). 16 bytes: a
+/// Whitted frame written to PNG streams nothing else ([`SurfacePixel`] is a plane of its own).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FilmPixel {
+    pub colour: Rgb,
+    pub coverage: f32,
+}
+
+/// The first-hit AOVs of one pixel ([`Film::surface`]): normal and albedo averaged over the
+/// samples that hit a surface, depth too (linear eye-space distance along the view axis, +inf
+/// where no sample hit). 28 bytes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfacePixel {
+    pub normal: Vec3,
+    pub albedo: Rgb,
+    pub depth: f32,
+}
+
+impl Default for SurfacePixel {
+    fn default() -> Self {
+        Self { normal: Vec3::ZERO, albedo: Rgb::ZERO, depth: f32::INFINITY }
+    }
+}
+
+/// A pixel's beauty and first-hit AOVs in one record: what a Whitted sample leaves
+/// ([`crate::whitted::Samples::One`]) and a Whitted chunk file holds (44 bytes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelRecord {
     pub colour: Rgb,
     pub normal: Vec3,
     pub albedo: Rgb,
@@ -27,9 +49,62 @@ pub struct FilmPixel {
     pub coverage: f32,
 }
 
-impl Default for FilmPixel {
+impl Default for PixelRecord {
     fn default() -> Self {
-        Self { colour: Rgb::ZERO, normal: Vec3::ZERO, albedo: Rgb::ZERO, depth: f32::INFINITY, coverage: 0.0 }
+        Self::join(FilmPixel::default(), SurfacePixel::default())
+    }
+}
+
+impl PixelRecord {
+    #[inline]
+    #[must_use]
+    pub fn join(beauty: FilmPixel, surface: SurfacePixel) -> Self {
+        let FilmPixel { colour, coverage } = beauty;
+        let SurfacePixel { normal, albedo, depth } = surface;
+        Self { colour, normal, albedo, depth, coverage }
+    }
+
+    #[inline]
+    #[must_use]
+    pub fn beauty(&self) -> FilmPixel {
+        FilmPixel { colour: self.colour, coverage: self.coverage }
+    }
+
+    #[inline]
+    #[must_use]
+    pub fn surface(&self) -> SurfacePixel {
+        SurfacePixel { normal: self.normal, albedo: self.albedo, depth: self.depth }
+    }
+}
+
+/// Rows of a film to be written (a band's): the beauty, and the first-hit AOVs when the film
+/// holds them (else `surface` is empty and [`FilmRows::set`] writes the beauty alone).
+pub struct FilmRows<'a> {
+    pub pixels: &'a mut [FilmPixel],
+    pub surface: &'a mut [SurfacePixel],
+}
+
+impl FilmRows<'_> {
+    /// Pixels in these rows.
+    #[inline]
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.pixels.len()
+    }
+
+    #[inline]
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.pixels.is_empty()
+    }
+
+    /// Write pixel `i`'s record: its beauty, and its AOVs when the film holds them.
+    #[inline]
+    pub fn set(&mut self, i: usize, record: PixelRecord) {
+        self.pixels[i] = record.beauty();
+        if let Some(s) = self.surface.get_mut(i) {
+            *s = record.surface();
+        }
     }
 }
 
@@ -52,13 +127,22 @@ pub struct PathAovs {
 /// A named channel and how to read it from a per-pixel record.
 type Reader<T> = (&'static str, fn(&T) -> f32);
 type ChannelReader = Reader<FilmPixel>;
+type SurfaceChannelReader = Reader<SurfacePixel>;
 type PathChannelReader = Reader<PathAovs>;
 
+/// A frame's picture as planes of per-pixel records, each written only when a frame needs it:
+/// the beauty always ([`FilmPixel`], 16 bytes a pixel), the first-hit AOVs when the film holds
+/// them ([`SurfacePixel`], 28), the path mode's own AOVs in path frames ([`PathAovs`], 40).
+/// A band of rows is a contiguous slice of each plane a thread can own.
 #[derive(Clone, Debug)]
 pub struct Film {
     pub width: u32,
     pub height: u32,
     pub pixels: Vec<FilmPixel>,
+    /// The first-hit AOVs, one per pixel when the film holds them ([`Film::has_surface`]),
+    /// else empty: a film made by [`Film::beauty_only`] (a Whitted frame written to PNG) neither
+    /// writes nor first-touches them. The path and points modes always write them.
+    pub surface: Vec<SurfacePixel>,
     /// The path mode's AOVs, one per pixel when `path_aovs` (else stale or empty): written
     /// through [`Film::path_aovs_mut`].
     pub path: Vec<PathAovs>,
@@ -80,55 +164,129 @@ impl Film {
         Self::try_new(width, height).expect("a film small enough to allocate")
     }
 
-    /// A `width × height` film, checked against the memory budget and allocated fallibly.
+    /// A `width × height` film with the first-hit AOVs, checked against the memory budget and
+    /// allocated fallibly.
     ///
     /// # Errors
     /// [`MemoryError`] naming the film's size when the budget or the allocator refuses it.
     pub fn try_new(width: u32, height: u32) -> Result<Self, MemoryError> {
-        let what = || format!("the film of a {width} x {height} image ({} bytes per pixel)", size_of::<FilmPixel>());
-        let count = width as usize * height as usize;
-        let mut pixels = memory::try_with_capacity(what, count)?;
-        // Filled (and so first touched, page by page) on every thread: a single frame's film
-        // is 91 MB at 1920 × 1080, whose page faults on one thread cost about as much as the
-        // whole Whitted frame.
-        crate::first_touch::resize(&mut pixels, count, FilmPixel::default());
-        Ok(Self { width, height, pixels, path: Vec::new(), path_aovs: false, variance: false })
+        Self::with_planes(width, height, true)
     }
 
-    /// Make this a `width × height` film for a new frame, reusing its memory when the size is
-    /// the same: the pixels are left as they are (every mode writes each one), the path AOVs
-    /// are off.
+    /// A `width × height` film of the beauty alone (no first-hit AOVs): 16 bytes a pixel
+    /// instead of 44, for output that shows only the picture (PNG).
+    ///
+    /// # Errors
+    /// As [`Film::try_new`].
+    pub fn beauty_only(width: u32, height: u32) -> Result<Self, MemoryError> {
+        Self::with_planes(width, height, false)
+    }
+
+    fn with_planes(width: u32, height: u32, surface: bool) -> Result<Self, MemoryError> {
+        let mut film = Self {
+            width,
+            height,
+            pixels: Vec::new(),
+            surface: Vec::new(),
+            path: Vec::new(),
+            path_aovs: false,
+            variance: false,
+        };
+        let count = film.count();
+        let bytes = size_of::<FilmPixel>() + if surface { size_of::<SurfacePixel>() } else { 0 };
+        let what = || format!("the film of a {width} x {height} image ({bytes} bytes per pixel)");
+        memory::check(what, (count as u64).saturating_mul(bytes as u64))?;
+        film.pixels = grown(count, FilmPixel::default(), &what)?;
+        if surface {
+            film.surface = grown(count, SurfacePixel::default(), &what)?;
+        }
+        Ok(film)
+    }
+
+    fn count(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+
+    /// Whether the film holds the first-hit AOVs (normal, albedo, depth).
+    #[must_use]
+    pub fn has_surface(&self) -> bool {
+        self.surface.len() == self.pixels.len()
+    }
+
+    /// Make this a `width × height` film for a new frame, with the planes it has now, reusing
+    /// its memory when the size is the same: the pixels are left as they are (every mode writes
+    /// each one), the path AOVs are off.
     ///
     /// # Errors
     /// As [`Film::try_new`], when the size changes.
     pub fn reset(&mut self, width: u32, height: u32) -> Result<(), MemoryError> {
-        if (self.width, self.height) != (width, height) {
-            // Free the old pixels first: both at once could be what does not fit.
-            *self = Film::try_new(0, 0)?;
-            *self = Film::try_new(width, height)?;
+        let surface = self.has_surface();
+        self.reset_with(width, height, surface)
+    }
+
+    /// [`Film::reset`], with the first-hit AOVs when `surface` (else without them).
+    ///
+    /// # Errors
+    /// As [`Film::try_new`], when the size or the planes change.
+    pub fn reset_with(&mut self, width: u32, height: u32, surface: bool) -> Result<(), MemoryError> {
+        if (self.width, self.height) != (width, height) || self.has_surface() != surface {
+            // Free the old planes first: both at once could be what does not fit.
+            *self = Film::with_planes(0, 0, surface)?;
+            *self = Film::with_planes(width, height, surface)?;
         }
         self.path_aovs = false;
         self.variance = false;
         Ok(())
     }
 
-    /// The pixels and their path AOVs, to be written (the AOVs marked meaningful): the AOVs are
-    /// sized to the film on first use (in the memory budget, grown on every thread), then
-    /// reused.
+    /// The film's rows to be written, cut into bands of `pixels_per_band` pixels (a whole number
+    /// of rows).
+    pub fn bands_mut(&mut self, pixels_per_band: usize) -> Vec<FilmRows<'_>> {
+        let step = pixels_per_band.max(1);
+        let bands = self.pixels.chunks_mut(step);
+        if self.surface.is_empty() {
+            bands.map(|pixels| FilmRows { pixels, surface: &mut [] }).collect()
+        } else {
+            bands.zip(self.surface.chunks_mut(step)).map(|(pixels, surface)| FilmRows { pixels, surface }).collect()
+        }
+    }
+
+    /// All of the film's rows to be written.
+    pub fn rows_mut(&mut self) -> FilmRows<'_> {
+        FilmRows { pixels: &mut self.pixels, surface: &mut self.surface }
+    }
+
+    /// The pixels, their first-hit AOVs (made when the film has none) and their path AOVs, to
+    /// be written (the path AOVs marked meaningful): the AOVs are sized to the film on first use
+    /// (in the memory budget, grown on every thread), then reused.
     ///
     /// # Errors
     /// [`MemoryError`] when the budget or the allocator refuses them.
-    pub fn path_aovs_mut(&mut self) -> Result<(&mut [FilmPixel], &mut [PathAovs]), MemoryError> {
+    pub fn path_aovs_mut(&mut self) -> Result<(FilmRows<'_>, &mut [PathAovs]), MemoryError> {
+        self.surface_mut()?;
         let count = self.pixels.len();
         if self.path.len() != count {
             let (w, h) = (self.width, self.height);
             let what = || format!("the path AOVs of a {w} x {h} image ({} bytes per pixel)", size_of::<PathAovs>());
             self.path = Vec::new();
-            self.path = memory::try_with_capacity(what, count)?;
-            crate::first_touch::resize(&mut self.path, count, PathAovs::default());
+            self.path = grown(count, PathAovs::default(), &what)?;
         }
         self.path_aovs = true;
-        Ok((&mut self.pixels, &mut self.path))
+        Ok((FilmRows { pixels: &mut self.pixels, surface: &mut self.surface }, &mut self.path))
+    }
+
+    /// The first-hit AOVs to be written, made first when the film has none.
+    ///
+    /// # Errors
+    /// [`MemoryError`] when the budget or the allocator refuses them.
+    pub fn surface_mut(&mut self) -> Result<FilmRows<'_>, MemoryError> {
+        if !self.has_surface() {
+            let (w, h) = (self.width, self.height);
+            let what = || format!("the AOVs of a {w} x {h} image ({} bytes per pixel)", size_of::<SurfacePixel>());
+            self.surface = Vec::new();
+            self.surface = grown(self.pixels.len(), SurfacePixel::default(), &what)?;
+        }
+        Ok(self.rows_mut())
     }
 
     /// The path AOVs of pixel (x, y) when the film holds them.
@@ -138,19 +296,44 @@ impl Film {
     }
 
     /// Take `other`'s pixel wherever it saw a surface nearer than this film's (both of one
-    /// size; depth is eye depth in both): how the points mode lays traced meshes over clouds.
+    /// size, both with first-hit AOVs; depth is eye depth in both): how the points mode lays
+    /// traced meshes over clouds.
     pub fn composite_nearer(&mut self, other: &Film) {
         debug_assert_eq!((self.width, self.height), (other.width, other.height));
-        for (p, o) in self.pixels.iter_mut().zip(&other.pixels) {
-            if o.coverage > 0.0 && o.depth < p.depth {
-                *p = *o;
+        debug_assert!(self.has_surface() && other.has_surface());
+        let mine = self.pixels.iter_mut().zip(&mut self.surface);
+        for ((p, s), (o, t)) in mine.zip(other.pixels.iter().zip(&other.surface)) {
+            if o.coverage > 0.0 && t.depth < s.depth {
+                (*p, *s) = (*o, *t);
             }
         }
     }
 
     #[must_use]
     pub fn pixel(&self, x: u32, y: u32) -> &FilmPixel {
-        &self.pixels[y as usize * self.width as usize + x as usize]
+        &self.pixels[self.index(x, y)]
+    }
+
+    /// Pixel (x, y)'s first-hit AOVs (the defaults, depth +inf, when the film holds none).
+    #[must_use]
+    pub fn surface_pixel(&self, x: u32, y: u32) -> SurfacePixel {
+        self.surface.get(self.index(x, y)).copied().unwrap_or_default()
+    }
+
+    fn index(&self, x: u32, y: u32) -> usize {
+        y as usize * self.width as usize + x as usize
+    }
+
+    /// Pixel `i`'s beauty and first-hit AOVs as one record.
+    #[must_use]
+    pub fn record(&self, i: usize) -> PixelRecord {
+        PixelRecord::join(self.pixels[i], self.surface.get(i).copied().unwrap_or_default())
+    }
+
+    /// Every pixel's record, in order (a Whitted chunk's pixels).
+    #[must_use]
+    pub fn records(&self) -> Vec<PixelRecord> {
+        (0..self.pixels.len()).map(|i| self.record(i)).collect()
     }
 
     /// Beauty only, as channels R, G, B (and A = coverage when `alpha`).
@@ -180,16 +363,15 @@ impl Film {
         })
     }
 
-    /// Beauty and every AOV as named channels (EXR names: pbrt-v4's where it has them):
-    /// R G B A, Albedo.R/G/B, Ns.X/Y/Z, Z, and in path mode Direct.R/G/B, Indirect.R/G/B,
-    /// SampleCount, and without a filter Variance.R/G/B (docs/aovs.md).
+    /// Beauty and every AOV the film holds as named channels (EXR names: pbrt-v4's where it
+    /// has them): R G B A, with first-hit AOVs Albedo.R/G/B, Ns.X/Y/Z, Z, and in path mode
+    /// Direct.R/G/B, Indirect.R/G/B, SampleCount, and without a filter Variance.R/G/B
+    /// (docs/aovs.md).
     #[must_use]
     pub fn aov_image(&self) -> Image {
-        let chans: [ChannelReader; 11] = [
-            ("R", |p| p.colour.x),
-            ("G", |p| p.colour.y),
-            ("B", |p| p.colour.z),
-            ("A", |p| p.coverage),
+        let chans: [ChannelReader; 4] =
+            [("R", |p| p.colour.x), ("G", |p| p.colour.y), ("B", |p| p.colour.z), ("A", |p| p.coverage)];
+        let surface: [SurfaceChannelReader; 7] = [
             ("Albedo.R", |p| p.albedo.x),
             ("Albedo.G", |p| p.albedo.y),
             ("Albedo.B", |p| p.albedo.z),
@@ -211,6 +393,10 @@ impl Film {
             ("Variance.B", |p| p.variance.z),
         ];
         let mut img = planes_of(&self.pixels, self.width, self.height, &chans);
+        if self.has_surface() {
+            let extra = planes_of(&self.surface, self.width, self.height, &surface);
+            img.channels.extend(extra.channels);
+        }
         if self.path_aovs {
             let len = if self.variance { 10 } else { 7 };
             let extra = planes_of(&self.path, self.width, self.height, &path[..len]);
@@ -218,6 +404,15 @@ impl Film {
         }
         img
     }
+}
+
+/// `count` copies of `value` in a fallibly allocated buffer, written (and so first touched,
+/// page by page) on every thread: a single frame's film is 91 MB at 1920 × 1080 with every
+/// AOV, whose page faults on one thread cost about as much as the whole Whitted frame.
+fn grown<T: Clone + Send + Sync>(count: usize, value: T, what: &impl Fn() -> String) -> Result<Vec<T>, MemoryError> {
+    let mut v = memory::try_with_capacity(what, count)?;
+    crate::first_touch::resize(&mut v, count, value);
+    Ok(v)
 }
 
 /// The named planes of `records` (one per pixel), filled in parallel (one pass over the records
@@ -249,7 +444,7 @@ fn planes_of<T: Sync>(records: &[T], width: u32, height: u32, chans: &[Reader<T>
 
 #[cfg(test)]
 mod tests {
-    use super::{Film, FilmPixel};
+    use super::{Film, FilmPixel, PixelRecord, SurfacePixel};
     use glint_core::{Rgb, Vec3};
     use glint_image::{PngOptions, ToneMap, encode_srgb8};
 
@@ -268,8 +463,6 @@ mod tests {
             *p = FilmPixel {
                 colour: Rgb::new(t.sin().abs() * 3.0 + odd, (t * 0.1).fract(), 1e-5 * i as f32),
                 coverage: (i % 5) as f32 / 4.0,
-                normal: Vec3::Z,
-                ..FilmPixel::default()
             };
         }
         film
@@ -290,5 +483,40 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_beauty_only_film_holds_and_writes_no_aovs() {
+        let record = PixelRecord {
+            colour: Rgb::new(1.0, 2.0, 3.0),
+            normal: Vec3::Z,
+            albedo: Rgb::splat(0.5),
+            depth: 4.0,
+            coverage: 1.0,
+        };
+        let mut lean = Film::beauty_only(5, 4).expect("small");
+        assert!(!lean.has_surface() && lean.surface.is_empty());
+        let mut full = Film::new(5, 4);
+        assert!(full.has_surface());
+        for film in [&mut lean, &mut full] {
+            let mut bands = film.bands_mut(10);
+            assert_eq!(bands.iter().map(super::FilmRows::len).collect::<Vec<_>>(), [10, 10]);
+            bands[1].set(3, record);
+        }
+        assert_eq!(lean.pixels[13], record.beauty());
+        assert_eq!(full.record(13), record);
+        assert_eq!(lean.record(13), PixelRecord { ..PixelRecord::join(record.beauty(), SurfacePixel::default()) });
+        assert_eq!(lean.surface_pixel(3, 2), SurfacePixel::default());
+        // EXR channels: the beauty alone, or with the AOVs.
+        let names = |f: &Film| f.aov_image().channels.iter().map(|c| c.name.clone()).collect::<Vec<_>>();
+        assert_eq!(names(&lean), ["R", "G", "B", "A"]);
+        assert_eq!(names(&full).len(), 11);
+        // A reset keeps the planes; asking for AOVs makes them.
+        lean.reset(6, 4).expect("small");
+        assert!(!lean.has_surface() && lean.pixels.len() == 24);
+        lean.surface_mut().expect("small");
+        assert!(lean.has_surface() && lean.surface.len() == 24);
+        full.reset_with(5, 4, false).expect("small");
+        assert!(!full.has_surface());
     }
 }

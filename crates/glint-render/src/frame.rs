@@ -13,7 +13,7 @@
 
 use crate::bands::Hooks;
 use crate::film::Film;
-use crate::film::FilmPixel;
+use crate::film::PixelRecord;
 use crate::path::{PathAccumulator, PathSettings, PathSums, Share, render_path, render_path_sums};
 use crate::points::{PointFrame, PointRenderer, PointSettings};
 use crate::settings::Region;
@@ -104,7 +104,7 @@ pub enum Part {
 pub struct WhittedPart {
     pub width: u32,
     pub height: u32,
-    pub pixels: Vec<FilmPixel>,
+    pub pixels: Vec<PixelRecord>,
     pub raw: bool,
 }
 
@@ -218,6 +218,8 @@ pub struct Renderer {
     points_picture: bool,
     /// `film` holds a copy of `point_frame` (made on demand).
     film_synced: bool,
+    /// Whitted frames write the first-hit AOVs ([`Renderer::set_surface_aovs`]).
+    surface_aovs: bool,
 }
 
 impl Renderer {
@@ -245,7 +247,17 @@ impl Renderer {
             progressive: false,
             points_picture: false,
             film_synced: false,
+            surface_aovs: true,
         })
+    }
+
+    /// Whether Whitted frames write the first-hit AOVs (normal, albedo, depth) into the film:
+    /// on by default (EXR output, the viewer's AOV views, chunks); off when only the picture is
+    /// wanted (PNG output, a benchmark of it), which then streams 16 bytes a pixel instead of
+    /// 44. The path and points modes always write them: their filters and compositing read
+    /// them.
+    pub fn set_surface_aovs(&mut self, on: bool) {
+        self.surface_aovs = on;
     }
 
     /// The scene as drawn now (animated to the current time).
@@ -359,7 +371,7 @@ impl Renderer {
         hooks: &Hooks,
     ) -> Result<FrameStats, RenderError> {
         self.points_picture = false;
-        let setup = self.size_film(image, false)?;
+        let setup = self.size_film(image, self.surface_aovs, false)?;
         let world = &self.world;
         let mut stats = match step {
             Step::Whole => {
@@ -378,6 +390,8 @@ impl Renderer {
             }
             Step::Pass { restart: false } => {
                 let pass = Samples::Pass(self.passes);
+                // Only the pass's colours are added to the picture.
+                self.scratch.reset_with(image.width, image.height, false)?;
                 let stats = whitted::render(world, camera, image, settings, pass, hooks, &mut self.scratch)?;
                 if self.whitted_sum.is_empty() {
                     self.whitted_sum.par_extend(self.film.pixels.par_iter().map(|p| p.colour));
@@ -420,7 +434,7 @@ impl Renderer {
         let world = &self.world;
         match step {
             Step::Whole => {
-                let film = self.size_film(image, true)?;
+                let film = self.size_film(image, true, true)?;
                 let world = &self.world;
                 let mut stats = render_path(world, camera, image, settings, hooks, &mut self.film)?;
                 stats.setup += film;
@@ -479,6 +493,8 @@ impl Renderer {
         } else {
             self.points_picture = false;
             self.point_frame.write_film(&mut self.film);
+            // The traced meshes are laid over the clouds by depth.
+            self.scratch.reset_with(image.width, image.height, true)?;
             let m = whitted::render(&self.world, camera, image, meshes, Samples::Stratified, hooks, &mut self.scratch)?;
             self.film.composite_nearer(&self.scratch);
             stats.stages.push(("trace", m.elapsed));
@@ -505,17 +521,19 @@ impl Renderer {
         Ok(stats)
     }
 
-    /// Make the film the size of `image`'s frame before the frame's clock starts: a new size
-    /// allocates and first touches it (44 bytes a pixel: 91 MB at 1920 × 1080, whose page
-    /// faults a single frame would otherwise time as rendering). Returns that time (zero when
-    /// the size was drawn before): `FrameStats::setup`.
-    fn size_film(&mut self, image: &ImageSettings, path_aovs: bool) -> Result<Duration, RenderError> {
+    /// Make the film the size of `image`'s frame, with the first-hit AOVs when `surface` and
+    /// the path AOVs when `path_aovs`, before the frame's clock starts: a new size allocates
+    /// and first touches it (16 bytes a pixel for the beauty, 44 with the AOVs: 91 MB at
+    /// 1920 × 1080, whose page faults a single frame would otherwise time as rendering).
+    /// Returns that time (zero when the size and planes were drawn before): `FrameStats::setup`.
+    fn size_film(&mut self, image: &ImageSettings, surface: bool, path_aovs: bool) -> Result<Duration, RenderError> {
         let sized = (self.film.width, self.film.height) == (image.width, image.height);
-        if sized && (!path_aovs || self.film.path.len() == self.film.pixels.len()) {
+        if sized && self.film.has_surface() == surface && (!path_aovs || self.film.path.len() == self.film.pixels.len())
+        {
             return Ok(Duration::ZERO);
         }
         let start = Instant::now();
-        self.film.reset(image.width, image.height)?;
+        self.film.reset_with(image.width, image.height, surface)?;
         if path_aovs {
             self.film.path_aovs_mut()?;
         }
@@ -601,6 +619,9 @@ impl Renderer {
                         share.index, share.count
                     )));
                 }
+                // A chunk's records carry the first-hit AOVs.
+                self.film.reset_with(part_image.width, part_image.height, true)?;
+                self.scratch.reset_with(part_image.width, part_image.height, true)?;
                 let world = &self.world;
                 let (stats, part) = if units == (0..u64::from(samples)) {
                     let stats = whitted::render(
@@ -617,7 +638,7 @@ impl Renderer {
                         WhittedPart {
                             width: part_image.width,
                             height: part_image.height,
-                            pixels: self.film.pixels.clone(),
+                            pixels: self.film.records(),
                             raw: false,
                         },
                     )
@@ -633,7 +654,7 @@ impl Renderer {
                         for s in units {
                             let one = Samples::One(s as u32);
                             let one = whitted::render(world, camera, &part_image, settings, one, hooks, scratch)?;
-                            pixels.extend_from_slice(&scratch.pixels);
+                            pixels.extend((0..scratch.pixels.len()).map(|i| scratch.record(i)));
                             stats.rays.add(&one.rays);
                             stats.rejected_samples += one.rejected_samples;
                             stats.clamped_samples += one.clamped_samples;

@@ -27,7 +27,7 @@ mod world;
 
 pub use bands::{Hooks, Schedule};
 pub use error::RenderError;
-pub use film::{Film, FilmPixel, MAX_SAMPLE_RADIANCE, PathAovs};
+pub use film::{Film, FilmPixel, FilmRows, MAX_SAMPLE_RADIANCE, PathAovs, PixelRecord, SurfacePixel};
 pub use frame::{Mode, ModeSettings, Part, Picture, Renderer, WhittedPart};
 pub use settings::{ImageSettings, Region, WhittedKernel, WhittedSettings, Window};
 pub use stats::{BandStats, FrameStats, RayCounts};

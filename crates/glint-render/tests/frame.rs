@@ -146,3 +146,46 @@ fn a_mode_without_content_is_refused() {
     let mut r = Renderer::new(objects).unwrap();
     assert!(r.render(&camera, &ImageSettings::new(8, 8), &mode(RenderMode::Points), &Hooks::default()).is_err());
 }
+
+/// A renderer told to write no first-hit AOVs (a PNG's frame) gives the same beauty bits as one
+/// that writes them, for every Whitted path: both kernels, supersampled, a crop window off the
+/// tile grid, refinement passes; its film then holds no AOV planes. The path and points modes
+/// write them all the same (their filters and compositing read them).
+#[test]
+fn frames_without_aovs_have_the_same_beauty() {
+    use glint_render::{Region, WhittedKernel};
+    let scene = cloud_and_sphere();
+    let camera = scene.camera;
+    let mut full = Renderer::new(scene.clone()).unwrap();
+    let mut lean = Renderer::new(scene).unwrap();
+    lean.set_surface_aovs(false);
+    let image = ImageSettings::new(40, 24);
+    let window = image.sub(Region { x0: 5, y0: 3, width: 21, height: 13 });
+    for kernel in [WhittedKernel::Batched, WhittedKernel::Scalar] {
+        for side in [1, 2] {
+            let Mode::Whitted(base) = mode(RenderMode::Whitted) else { unreachable!() };
+            let m = Mode::Whitted(glint_render::WhittedSettings { kernel, samples_per_side: side, ..base });
+            for image in [image, window] {
+                full.render(&camera, &image, &m, &Hooks::default()).unwrap();
+                lean.render(&camera, &image, &m, &Hooks::default()).unwrap();
+                let what = format!("{kernel:?}, {side}x{side} samples, {}x{}", image.width, image.height);
+                assert!(full.film().has_surface() && !lean.film().has_surface(), "{what}");
+                assert!(lean.film().surface.is_empty(), "{what}: no AOV plane");
+                assert!(full.film().pixels == lean.film().pixels, "{what}: beauty differs");
+                assert_eq!(lean.film().aov_image().channels.len(), 4, "{what}: R G B A only");
+            }
+            for restart in [true, false, false] {
+                full.add_pass(&camera, &image, &m, restart, &Hooks::default()).unwrap();
+                lean.add_pass(&camera, &image, &m, restart, &Hooks::default()).unwrap();
+                assert!(full.film().pixels == lean.film().pixels, "{kernel:?}: passes differ");
+            }
+        }
+    }
+    for kind in [RenderMode::Path, RenderMode::Points] {
+        full.render(&camera, &image, &mode(kind), &Hooks::default()).unwrap();
+        lean.render(&camera, &image, &mode(kind), &Hooks::default()).unwrap();
+        let (a, b) = (full.film(), lean.film());
+        assert!(a.has_surface() && b.has_surface(), "{kind:?}: its AOVs are written");
+        assert!(a.pixels == b.pixels && a.surface == b.surface, "{kind:?}");
+    }
+}

@@ -253,7 +253,7 @@ fn progressive_passes_match_render_path() {
         acc.resolve(&world, &filter, &mut film).expect("resolve");
         let colours = |f: &Film| f.pixels.iter().map(|p| p.colour).collect::<Vec<_>>();
         assert!(colours(&film) == colours(&reference), "{p:?}: one pass differs from render_path");
-        assert!(film.pixels.iter().zip(&reference.pixels).all(|(a, b)| a.normal == b.normal && a.depth == b.depth));
+        assert!(film.surface.iter().zip(&reference.surface).all(|(a, b)| a.normal == b.normal && a.depth == b.depth));
     }
     // Eight passes without a filter: render_path at 8 spp.
     let p = path(1, 2, Filter::None);
@@ -426,7 +426,7 @@ fn wavefront_and_recursive_tracers_agree_without_delta_lobes() {
         assert_eq!(sa.rays.total(), sb.rays.total(), "{p:?}: ray counts");
         let mut lit = 0;
         assert!(a.path_aovs && b.path_aovs && a.path.len() == a.pixels.len() && b.path.len() == b.pixels.len());
-        for (i, (x, y)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+        for (i, (x, y)) in (0..a.pixels.len()).map(|i| (a.record(i), b.record(i))).enumerate() {
             let (xp, yp) = (a.path[i], b.path[i]);
             for (u, v) in
                 [(x.colour, y.colour), (xp.direct, yp.direct), (xp.indirect, yp.indirect), (x.albedo, y.albedo)]

@@ -347,8 +347,8 @@ fn bit_identical_on_one_and_two_threads() {
     };
     let a = run(1, Schedule::WorkStealing);
     let bits = |f: &glint_render::Film| -> Vec<u32> {
-        f.pixels
-            .iter()
+        (0..f.pixels.len())
+            .map(|i| f.record(i))
             .flat_map(|p| [p.colour.x, p.colour.y, p.colour.z, p.depth, p.coverage, p.normal.x])
             .map(f32::to_bits)
             .collect()

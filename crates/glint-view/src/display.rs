@@ -95,7 +95,7 @@ struct Aovs {
 /// `film`'s channel `what` as 0RGB words (film size).
 pub fn display(film: &Film, what: Display, pixels: &mut Vec<u32>) {
     display_with(film.pixels.len(), what, pixels, |i| {
-        let p = &film.pixels[i];
+        let p = film.record(i);
         // Only path frames have direct and indirect light: black elsewhere.
         let path = if film.path_aovs { film.path[i] } else { PathAovs::default() };
         Aovs {
@@ -186,7 +186,7 @@ mod tests {
     #![allow(clippy::unwrap_used, clippy::expect_used)]
     use super::*;
     use glint_core::Vec3;
-    use glint_render::FilmPixel;
+    use glint_render::{FilmPixel, SurfacePixel};
 
     #[test]
     fn pixels_are_srgb_words() {
@@ -208,14 +208,10 @@ mod tests {
     #[test]
     fn every_channel_shows_its_aov() {
         let mut film = Film::new(3, 1);
-        film.pixels[0] = FilmPixel {
-            colour: Rgb::ONE,
-            normal: Vec3::X,
-            albedo: Rgb::new(1.0, 0.0, 0.0),
-            depth: 1.0,
-            ..FilmPixel::default()
-        };
-        film.pixels[1] = FilmPixel { normal: Vec3::NEG_Y, depth: 3.0, ..film.pixels[0] };
+        film.pixels[0] = FilmPixel { colour: Rgb::ONE, ..FilmPixel::default() };
+        film.surface[0] = SurfacePixel { normal: Vec3::X, albedo: Rgb::new(1.0, 0.0, 0.0), depth: 1.0 };
+        film.pixels[1] = film.pixels[0];
+        film.surface[1] = SurfacePixel { normal: Vec3::NEG_Y, depth: 3.0, ..film.surface[0] };
         let mut p = Vec::new();
         display(&film, Display::Direct, &mut p);
         assert_eq!(p, [0, 0, 0], "no path AOVs: black");

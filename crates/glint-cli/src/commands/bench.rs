@@ -293,6 +293,9 @@ fn whitted(a: &BenchWhittedArgs) -> Result<()> {
         if let Some(s) = sky_scene {
             renderers.push(("--sky map", Renderer::new(s)?));
         }
+        for (_, r) in &mut renderers {
+            r.set_surface_aovs(a.aovs);
+        }
         // Every (sky, kernel) variant, its frames interleaved with the others' so that all see
         // the same machine load; each warmed up first.
         let mut variants: Vec<(usize, KernelArg)> = Vec::new();
@@ -320,11 +323,12 @@ fn whitted(a: &BenchWhittedArgs) -> Result<()> {
             medians.push(med);
             let (r, k) = variants[v];
             out!(
-                "whitted {}x{}, {} threads, {:?}, {}, {k:?}: median {:.2} ms/frame ({:.1} fps), {:.1} Mrays/s, {} rays/frame",
+                "whitted {}x{}, {} threads, {:?}, {}, {}, {k:?}: median {:.2} ms/frame ({:.1} fps), {:.1} Mrays/s, {} rays/frame",
                 a.width,
                 a.height,
                 rayon::current_num_threads(),
                 image.schedule,
+                if a.aovs { "beauty + AOVs" } else { "beauty" },
                 renderers[r].0,
                 med,
                 1e3 / med,

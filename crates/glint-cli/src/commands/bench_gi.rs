@@ -207,10 +207,10 @@ struct GuideBuffers {
 
 impl GuideBuffers {
     fn from_film(film: &Film) -> GuideBuffers {
-        let max_depth = film.pixels.iter().map(|p| p.depth).filter(|d| d.is_finite()).fold(0.0f32, f32::max).max(1e-6);
-        let pick = |f: &dyn Fn(&glint_render::FilmPixel) -> f32| film.pixels.iter().map(f).collect::<Vec<f32>>();
+        // A path frame's film holds its AOVs (the benchmark renders one just before).
+        let max_depth = film.surface.iter().map(|p| p.depth).filter(|d| d.is_finite()).fold(0.0f32, f32::max).max(1e-6);
+        let pick = |f: &dyn Fn(&glint_render::SurfacePixel) -> f32| film.surface.iter().map(f).collect::<Vec<f32>>();
         GuideBuffers {
-            // A path frame's film holds its AOVs (the benchmark renders one just before).
             indirect: [0, 1, 2].map(|c| film.path.iter().map(|p| p.indirect.to_array()[c]).collect()),
             normal: [pick(&|p| p.normal.x), pick(&|p| p.normal.y), pick(&|p| p.normal.z)],
             depth: pick(&|p| if p.depth.is_finite() { p.depth / max_depth } else { 2.0 }),

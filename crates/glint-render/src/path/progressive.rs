@@ -24,7 +24,7 @@ use super::integrator::{GuideGeometry, IndirectMode};
 use super::wavefront::Request;
 use super::{BAND_ROWS, FilterBuffers, Frame, PathSettings, Tracer, depth_scale, filter_indirect};
 use crate::bands::{self, Hooks};
-use crate::film::{Film, FilmPixel, PathAovs};
+use crate::film::{Film, FilmPixel, FilmRows, PathAovs, SurfacePixel};
 use crate::fixed;
 use crate::settings::ImageSettings;
 use crate::stats::{BandStats, FrameStats};
@@ -200,8 +200,9 @@ impl PathAccumulator {
             *film = Film::try_new(self.width, self.height)?;
         }
         if self.passes == 0 {
-            let (pixels, path) = film.path_aovs_mut()?;
+            let (FilmRows { pixels, surface }, path) = film.path_aovs_mut()?;
             pixels.fill(FilmPixel::default());
+            surface.fill(SurfacePixel::default());
             path.fill(PathAovs::default());
             return Ok(Duration::ZERO);
         }
@@ -225,8 +226,9 @@ impl PathAccumulator {
         };
         let filter_time = start.elapsed();
         let buffers = &self.filter_buffers;
-        let (pixels, path) = film.path_aovs_mut()?;
-        pixels.par_iter_mut().zip(path).enumerate().for_each(|(i, (p, q))| {
+        let (FilmRows { pixels, surface }, path) = film.path_aovs_mut()?;
+        let records = pixels.par_iter_mut().zip(surface).zip(path);
+        records.enumerate().for_each(|(i, ((p, t), q))| {
             let s = &self.sums[i];
             let n = s.samples.max(1) as f32;
             let guide = self.guides[i];
@@ -236,12 +238,11 @@ impl PathAccumulator {
             } else {
                 (fixed::mean(&s.colour, u64::from(s.samples)), mean_indirect(s))
             };
-            *p = FilmPixel {
-                colour,
+            *p = FilmPixel { colour, coverage: s.covered as f32 / n };
+            *t = SurfacePixel {
                 normal: guide.map_or(Vec3::ZERO, |q| q.normal),
                 albedo: self.centre_albedo[i],
                 depth: guide.map_or(f32::INFINITY, |q| q.depth),
-                coverage: s.covered as f32 / n,
             };
             *q = PathAovs { direct: s.direct / n, indirect, samples: s.samples as f32, variance: Rgb::ZERO };
         });

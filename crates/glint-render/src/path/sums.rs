@@ -5,7 +5,7 @@
 //! goes through the same two steps, so a merged frame equals it bit for bit by construction.
 
 use crate::RenderError;
-use crate::film::{Film, FilmPixel, PathAovs};
+use crate::film::{Film, FilmPixel, FilmRows, PathAovs, SurfacePixel};
 use crate::first_touch::Pool;
 use crate::fixed::{self, Square};
 use glint_core::{Rgb, Vec3};
@@ -125,20 +125,15 @@ impl PathSums {
         film.reset(self.width, self.height)?;
         film.variance = !self.filtered;
         let none = FirstSample::default();
-        let (pixels, path) = film.path_aovs_mut()?;
+        let (FilmRows { pixels, surface }, path) = film.path_aovs_mut()?;
         // Independent pixels, on every thread (a 1024 × 768 frame's nine 128-bit means per pixel
         // took ~30 ms on one).
-        let records = pixels.par_iter_mut().zip(path);
-        records.zip(&self.pixels).enumerate().with_min_len(1024).for_each(|(i, ((p, q), a))| {
+        let records = pixels.par_iter_mut().zip(surface).zip(path);
+        records.zip(&self.pixels).enumerate().with_min_len(1024).for_each(|(i, (((p, t), q), a))| {
             let n = u64::from(a.samples);
             let first = self.first.as_ref().map_or(&none, |f| &f[i]);
-            *p = FilmPixel {
-                colour: fixed::mean(&a.colour, n),
-                normal: first.normal,
-                albedo: first.albedo,
-                depth: first.depth,
-                coverage: a.covered as f32 / n.max(1) as f32,
-            };
+            *p = FilmPixel { colour: fixed::mean(&a.colour, n), coverage: a.covered as f32 / n.max(1) as f32 };
+            *t = SurfacePixel { normal: first.normal, albedo: first.albedo, depth: first.depth };
             *q = PathAovs {
                 direct: fixed::mean(&a.direct, n),
                 indirect: fixed::mean(&a.indirect, if self.filtered { self.units } else { n }),

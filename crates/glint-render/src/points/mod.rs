@@ -30,9 +30,10 @@ use pyramid::Level;
 use pyramid::Texel;
 use view::View;
 
+use crate::film::{FilmPixel, FilmRows, SurfacePixel};
 use crate::first_touch;
 use crate::settings::ImageSettings;
-use crate::{Film, FilmPixel, RenderError};
+use crate::{Film, RenderError};
 use glint_core::{Rgb, Vec2, Vec3};
 use glint_scene::sky::IrradianceSh;
 use glint_scene::{Camera, Scene};
@@ -190,19 +191,15 @@ impl PointFrame {
     /// [`PointFrame::to_film`] into an existing film (resized when its size differs), in
     /// parallel: the viewer does this every frame and keeps the film's memory.
     pub fn write_film(&self, film: &mut Film) {
-        if (film.width, film.height) != (self.width, self.height) {
+        if (film.width, film.height) != (self.width, self.height) || !film.has_surface() {
             *film = Film::new(self.width, self.height);
         }
         film.path_aovs = false;
-        film.pixels.par_iter_mut().enumerate().for_each(|(i, p)| {
+        let FilmRows { pixels, surface } = film.rows_mut();
+        pixels.par_iter_mut().zip(surface).enumerate().for_each(|(i, (p, s))| {
             let hit = self.depth[i].is_finite();
-            *p = FilmPixel {
-                colour: self.colour[i],
-                normal: self.normal[i],
-                albedo: self.albedo[i],
-                depth: self.depth[i],
-                coverage: if hit { 1.0 } else { 0.0 },
-            };
+            *p = FilmPixel { colour: self.colour[i], coverage: if hit { 1.0 } else { 0.0 } };
+            *s = SurfacePixel { normal: self.normal[i], albedo: self.albedo[i], depth: self.depth[i] };
         });
     }
 }

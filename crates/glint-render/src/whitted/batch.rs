@@ -16,7 +16,7 @@
 
 use super::shade8::{MaterialTable, Shading, ShadowLight, shade, sky8};
 use super::{PixelAccumulator, Samples};
-use crate::film::{FilmPixel, MAX_SAMPLE_RADIANCE};
+use crate::film::{FilmPixel, FilmRows, MAX_SAMPLE_RADIANCE, SurfacePixel};
 use crate::settings::{ImageSettings, WhittedSettings};
 use crate::stats::{BandStats, RayCounts};
 use crate::world::{PointCones, World};
@@ -250,7 +250,7 @@ pub(super) fn render_band<I: Isa>(
     scratch: &mut Scratch,
     band_index: usize,
     rows: usize,
-    band: &mut [FilmPixel],
+    mut band: FilmRows,
 ) -> BandStats {
     let mut counts = RayCounts::default();
     let (mut rejected, mut clamped) = (0, 0);
@@ -258,7 +258,7 @@ pub(super) fn render_band<I: Isa>(
     let band_rows = band.len() / frame.width;
     for x0 in (0..frame.width).step_by(TILE_W) {
         let tile_w = TILE_W.min(frame.width - x0);
-        let (r, c) = render_tile::<I>(frame, scratch, x0, y0, tile_w, band_rows, &mut counts, band);
+        let (r, c) = render_tile::<I>(frame, scratch, x0, y0, tile_w, band_rows, &mut counts, &mut band);
         (rejected, clamped) = (rejected + r, clamped + c);
     }
     BandStats { rays: counts, rejected, clamped }
@@ -276,7 +276,7 @@ fn render_tile<I: Isa>(
     tile_w: usize,
     tile_h: usize,
     counts: &mut RayCounts,
-    band: &mut [FilmPixel],
+    band: &mut FilmRows,
 ) -> (u64, u64) {
     let per_pixel = frame.samples.range(frame.samples_per_side).len();
     let pixels = tile_w * tile_h;
@@ -426,7 +426,7 @@ fn resolve_tile(
     x0: usize,
     tile_w: usize,
     tile_h: usize,
-    band: &mut [FilmPixel],
+    band: &mut FilmRows,
 ) -> (u64, u64) {
     let per_pixel = frame.samples.range(frame.samples_per_side).len();
     let pixels = tile_w * tile_h;
@@ -438,23 +438,27 @@ fn resolve_tile(
         // pixel, a tenth of the frame): the same sums from zero, so the same bits.
         for ty in 0..tile_h {
             let k0 = ty * tile_w;
-            let row = &mut band[ty * frame.width + x0..][..tile_w];
+            let at = ty * frame.width + x0;
             let colours = &sums.colour[k0..k0 + tile_w];
-            let (hits, normals) = (&sums.hit[k0..k0 + tile_w], &sums.normal[k0..k0 + tile_w]);
-            let (albedos, depths) = (&sums.albedo[k0..k0 + tile_w], &sums.depth[k0..k0 + tile_w]);
+            let hits = &sums.hit[k0..k0 + tile_w];
+            for ((out, c), hit) in band.pixels[at..][..tile_w].iter_mut().zip(colours).zip(hits) {
+                let colour = Rgb::ZERO + admit(*c, &mut rejected, &mut clamped).unwrap_or(Rgb::ZERO);
+                *out = FilmPixel { colour, coverage: if *hit { 1.0 } else { 0.0 } };
+            }
+            // The first-hit AOVs, when the film holds them (not for a PNG's beauty alone).
+            let Some(row) = band.surface.get_mut(at..at + tile_w) else { continue };
+            let (normals, albedos, depths) =
+                (&sums.normal[k0..k0 + tile_w], &sums.albedo[k0..k0 + tile_w], &sums.depth[k0..k0 + tile_w]);
             for (tx, out) in row.iter_mut().enumerate() {
-                let colour = Rgb::ZERO + admit(colours[tx], &mut rejected, &mut clamped).unwrap_or(Rgb::ZERO);
                 *out = if hits[tx] {
                     let normal = Vec3::ZERO + normals[tx];
-                    FilmPixel {
-                        colour,
+                    SurfacePixel {
                         normal: if raw { normal } else { normal.normalize_or_zero() },
                         albedo: Rgb::ZERO + albedos[tx],
                         depth: 0.0 + depths[tx],
-                        coverage: 1.0,
                     }
                 } else {
-                    FilmPixel { colour, ..FilmPixel::default() }
+                    SurfacePixel::default()
                 };
             }
         }
@@ -473,7 +477,7 @@ fn resolve_tile(
                 let hit = sums.hit[k].then(|| (sums.normal[k], sums.albedo[k], sums.depth[k]));
                 acc.add_record(&PixelAccumulator::one(colour, hit).record());
             }
-            band[ty * frame.width + x0 + tx] = acc.finish(inv_samples);
+            band.set(ty * frame.width + x0 + tx, acc.finish(inv_samples));
         }
     }
     (rejected, clamped)

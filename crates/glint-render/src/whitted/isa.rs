@@ -5,7 +5,7 @@
 //! anywhere); the baseline can be forced for measurements and for the test that checks that.
 
 use super::batch::{Frame, Scratch, render_band};
-use crate::film::FilmPixel;
+use crate::film::FilmRows;
 use crate::stats::BandStats;
 use glint_accel::lanes::{Isa, LaneKernel, dispatch};
 
@@ -19,7 +19,7 @@ struct Band<'a, 'f> {
     frame: &'a Frame<'f>,
     index: usize,
     rows: usize,
-    pixels: &'a mut [FilmPixel],
+    pixels: FilmRows<'a>,
 }
 
 impl LaneKernel for Band<'_, '_> {
@@ -37,6 +37,6 @@ impl LaneKernel for Band<'_, '_> {
 }
 
 /// One band with the fastest build this machine runs (`baseline` forces SSE).
-pub(super) fn band(frame: &Frame, index: usize, rows: usize, pixels: &mut [FilmPixel], baseline: bool) -> BandStats {
+pub(super) fn band(frame: &Frame, index: usize, rows: usize, pixels: FilmRows, baseline: bool) -> BandStats {
     dispatch(Band { frame, index, rows, pixels }, baseline)
 }

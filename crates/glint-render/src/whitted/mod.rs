@@ -20,7 +20,7 @@ mod tracer;
 pub use tracer::{FirstHit, Tracer};
 
 use crate::bands::{self, Hooks};
-use crate::film::{Film, FilmPixel, MAX_SAMPLE_RADIANCE};
+use crate::film::{Film, FilmRows, MAX_SAMPLE_RADIANCE, PixelRecord};
 use crate::settings::{ImageSettings, WhittedKernel, WhittedSettings};
 use crate::stats::{BandStats, FrameStats};
 use crate::{RenderError, World};
@@ -107,7 +107,7 @@ pub fn render(
     let centre_cone = 1.0 / (rays.focal_pixels * settings.samples_per_side as f32);
     let forward = camera.forward.normalize();
 
-    let render_band = |band_index: usize, band: &mut [FilmPixel]| -> BandStats {
+    let render_band = |band_index: usize, mut band: FilmRows| -> BandStats {
         let mut tracer = Tracer::default();
         let (mut rejected, mut clamped) = (0, 0);
         let y0 = band_index * BAND_ROWS;
@@ -156,10 +156,13 @@ pub fn render(
                         // chunks of samples is merged (`SampleSum`).
                         acc.add_record(&PixelAccumulator::one(colour, hit).record());
                     }
-                    band[row * w + x] = match samples {
-                        Samples::One(_) => acc.record(),
-                        _ => acc.finish(inv_samples),
-                    };
+                    band.set(
+                        row * w + x,
+                        match samples {
+                            Samples::One(_) => acc.record(),
+                            _ => acc.finish(inv_samples),
+                        },
+                    );
                 }
             }
         }
@@ -167,15 +170,16 @@ pub fn render(
         BandStats { rays: tracer.counts, rejected, clamped }
     };
 
-    let parts: Vec<&mut [FilmPixel]> = film.pixels.chunks_mut(w * BAND_ROWS).collect();
+    let parts = film.bands_mut(w * BAND_ROWS);
     let totals = match settings.kernel {
         WhittedKernel::Scalar => bands::run(parts, image.schedule, hooks, render_band)?,
         kernel => {
             let frame = batch::Frame::new(world, camera, image, &settings, samples);
             let baseline = kernel == WhittedKernel::BatchedBaseline;
-            bands::run(parts, image.schedule, hooks, |i, band: &mut [FilmPixel]| {
+            bands::run(parts, image.schedule, hooks, |i, band: FilmRows| {
+                let rows = (band.len() / w) as u64;
                 let stats = isa::band(&frame, i, BAND_ROWS, band, baseline);
-                hooks.report((band.len() / w) as u64);
+                hooks.report(rows);
                 stats
             })?
         }
@@ -228,7 +232,11 @@ fn render_window(
     hooks: &Hooks,
     film: &mut Film,
 ) -> Result<FrameStats, RenderError> {
-    let mut grown = Film::try_new(aligned.width, aligned.height)?;
+    let mut grown = if film.has_surface() {
+        Film::try_new(aligned.width, aligned.height)?
+    } else {
+        Film::beauty_only(aligned.width, aligned.height)?
+    };
     let stats = render(world, camera, aligned, settings, samples, hooks, &mut grown)?;
     let (dx, dy) = (image.film_origin().0 - aligned.film_origin().0, image.film_origin().1 - aligned.film_origin().1);
     let (w, gw) = (image.width as usize, aligned.width as usize);
@@ -236,6 +244,10 @@ fn render_window(
     for (y, row) in film.pixels.chunks_mut(w).enumerate() {
         let start = (y + dy) * gw + dx;
         row.copy_from_slice(&grown.pixels[start..start + w]);
+    }
+    for (y, row) in film.surface.chunks_mut(w).enumerate() {
+        let start = (y + dy) * gw + dx;
+        row.copy_from_slice(&grown.surface[start..start + w]);
     }
     Ok(stats)
 }
@@ -259,16 +271,25 @@ impl SampleSum {
     }
 
     /// Add one sample's records (a film of [`Samples::One`]).
-    pub fn add(&mut self, records: &[FilmPixel]) {
+    pub fn add(&mut self, records: &[PixelRecord]) {
         use rayon::prelude::*;
         self.pixels.par_iter_mut().zip(records).for_each(|(acc, r)| acc.add_record(r));
     }
 
-    /// The pixels of `samples` samples.
-    pub fn finish(&self, samples: u32, out: &mut [FilmPixel]) {
+    /// The pixels of `samples` samples, into `out` (of as many pixels).
+    pub fn finish(&self, samples: u32, out: FilmRows) {
         use rayon::prelude::*;
         let inv_samples = 1.0 / samples.max(1) as f32;
-        out.par_iter_mut().zip(&self.pixels).for_each(|(o, acc)| *o = acc.finish(inv_samples));
+        let FilmRows { pixels, surface } = out;
+        if surface.is_empty() {
+            pixels.par_iter_mut().zip(&self.pixels).for_each(|(o, acc)| *o = acc.finish(inv_samples).beauty());
+        } else {
+            let out = pixels.par_iter_mut().zip(surface);
+            out.zip(&self.pixels).for_each(|((o, s), acc)| {
+                let record = acc.finish(inv_samples);
+                (*o, *s) = (record.beauty(), record.surface());
+            });
+        }
     }
 }
 
@@ -298,7 +319,7 @@ impl PixelAccumulator {
 
     /// Add one sample's record ([`PixelAccumulator::record`]).
     #[inline]
-    fn add_record(&mut self, r: &FilmPixel) {
+    fn add_record(&mut self, r: &PixelRecord) {
         self.colour += r.colour;
         if r.coverage > 0.0 {
             self.hits += 1;
@@ -310,20 +331,20 @@ impl PixelAccumulator {
 
     /// One sample's raw record ([`Samples::One`]): its colour and, when it hit, the first
     /// hit's normal as it is summed (not normalised), albedo, depth and coverage 1.
-    fn record(&self) -> FilmPixel {
+    fn record(&self) -> PixelRecord {
         if self.hits == 0 {
-            return FilmPixel { colour: self.colour, ..FilmPixel::default() };
+            return PixelRecord { colour: self.colour, ..PixelRecord::default() };
         }
-        FilmPixel { colour: self.colour, normal: self.normal, albedo: self.albedo, depth: self.depth, coverage: 1.0 }
+        PixelRecord { colour: self.colour, normal: self.normal, albedo: self.albedo, depth: self.depth, coverage: 1.0 }
     }
 
-    fn finish(self, inv_samples: f32) -> FilmPixel {
+    fn finish(self, inv_samples: f32) -> PixelRecord {
         let coverage = self.hits as f32 * inv_samples;
         if self.hits == 0 {
-            return FilmPixel { colour: self.colour * inv_samples, ..FilmPixel::default() };
+            return PixelRecord { colour: self.colour * inv_samples, ..PixelRecord::default() };
         }
         let inv_hits = 1.0 / self.hits as f32;
-        FilmPixel {
+        PixelRecord {
             colour: self.colour * inv_samples,
             normal: self.normal.normalize_or_zero(),
             albedo: self.albedo * inv_hits,
