@@ -774,8 +774,9 @@ pub struct BenchWhittedArgs {
     /// several kernels are interleaved.
     #[arg(long, value_delimiter = ',', value_enum, default_value = "batched")]
     pub kernel: Vec<KernelArg>,
-    /// Write the first-hit AOVs (normal, albedo, depth) too, as a render to EXR does; without
-    /// it the frames hold the beauty alone, as a render to PNG does.
+    /// Draw each frame into a float film with every AOV (normal, albedo, depth), as a render to
+    /// EXR and the viewer do; without it a frame is encoded to 8-bit sRGB band by band as it
+    /// is traced, as a render to PNG does.
     #[arg(long)]
     pub aovs: bool,
 }

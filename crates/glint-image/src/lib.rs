@@ -63,8 +63,8 @@ pub use exr_io::{ExrTable, TableData, read_exr_table, write_exr, write_exr_owned
 pub use hdr_io::write_hdr;
 pub use planar::{Channel, Image, RgbPlanes};
 pub use png_io::{
-    ENCODE_BLOCK, JPEG_QUALITY, LinearBlock, PngOptions, encode_srgb8, encode_srgb8_blocks, write_jpeg, write_png,
-    write_png_srgb8,
+    ENCODE_BLOCK, JPEG_QUALITY, LinearBlock, PngOptions, encode_srgb8, encode_srgb8_blocks, encode_srgb8_into,
+    write_jpeg, write_png, write_png_srgb8,
 };
 pub use read::{
     MAX_PIXELS, MAX_SAMPLES, MAX_SIDE, decode_image, is_image_start, jpeg_is_complete, read_image, read_texture,

@@ -109,9 +109,28 @@ pub fn encode_srgb8_blocks(
     out
 }
 
+/// Encodes pixels `first..` (as many as `out` holds: `out.len()` over 3, or 4 with
+/// `options.alpha`) into `out` on the calling thread, exactly as [`encode_srgb8_blocks`]
+/// encodes them (each output byte from its own pixel only), reading them from `fill` as it
+/// does. This lets a renderer encode each band of rows where it made it, while the band is in
+/// its cache, with no whole-image float film at all.
+pub fn encode_srgb8_into(options: &PngOptions, first: usize, fill: impl Fn(usize, &mut LinearBlock), out: &mut [u8]) {
+    let scale = options.exposure.exp2();
+    let channels = if options.alpha { 4 } else { 3 };
+    let lut = SrgbLut::get();
+    let blocks = out.chunks_mut(ENCODE_BLOCK * channels);
+    for (block, pixels) in blocks.enumerate() {
+        let start = first + block * ENCODE_BLOCK;
+        match options.tone_map {
+            ToneMap::Clamp => encode_block(tonemap::clamp, scale, options.alpha, lut, start, &fill, pixels),
+            ToneMap::Reinhard => encode_block(tonemap::reinhard, scale, options.alpha, lut, start, &fill, pixels),
+            ToneMap::Aces => encode_block(tonemap::aces, scale, options.alpha, lut, start, &fill, pixels),
+        }
+    }
+}
+
 /// The encode loop, monomorphised per tone map. Works in blocks of [`ENCODE_BLOCK`] pixels, in
-/// parallel: the block's planes are filled, exposure + tone map run over each colour plane
-/// (contiguous, branch-free, so it vectorises), then table lookups and interleaving.
+/// parallel ([`encode_block`] each).
 fn encode_blocks(
     tone_map: impl Fn(f32) -> f32 + Sync,
     scale: f32,
@@ -122,28 +141,45 @@ fn encode_blocks(
     let lut = SrgbLut::get();
     let channels = if alpha { 4 } else { 3 };
     out.par_chunks_mut(ENCODE_BLOCK * channels).with_min_len(16).enumerate().for_each(|(block, pixels)| {
-        let len = pixels.len() / channels;
-        let mut buf = LinearBlock { planes: [[0.0; ENCODE_BLOCK]; 4], len };
-        fill(block * ENCODE_BLOCK, &mut buf);
-        let [mut tr, mut tg, mut tb, a] = buf.planes;
-        for plane in [&mut tr, &mut tg, &mut tb] {
-            for t in &mut plane[..len] {
-                *t = tone_map(*t * scale);
-            }
-        }
-        let toned = tr[..len].iter().zip(&tg[..len]).zip(&tb[..len]);
-        if alpha {
-            let (pixels, _) = pixels.as_chunks_mut::<4>();
-            for ((px, ((&r, &g), &b)), &a) in pixels.iter_mut().zip(toned).zip(&a[..len]) {
-                *px = [lut.encode(r), lut.encode(g), lut.encode(b), alpha_u8(a)];
-            }
-        } else {
-            let (pixels, _) = pixels.as_chunks_mut::<3>();
-            for (px, ((&r, &g), &b)) in pixels.iter_mut().zip(toned) {
-                *px = [lut.encode(r), lut.encode(g), lut.encode(b)];
-            }
-        }
+        encode_block(&tone_map, scale, alpha, lut, block * ENCODE_BLOCK, fill, pixels);
     });
+}
+
+/// One block (at most [`ENCODE_BLOCK`] pixels from pixel `start`, as many as `pixels` holds):
+/// its planes are filled, exposure + tone map run over each colour plane (contiguous,
+/// branch-free, so it vectorises), then table lookups and interleaving.
+#[inline]
+fn encode_block(
+    tone_map: impl Fn(f32) -> f32,
+    scale: f32,
+    alpha: bool,
+    lut: &SrgbLut,
+    start: usize,
+    fill: &impl Fn(usize, &mut LinearBlock),
+    pixels: &mut [u8],
+) {
+    let channels = if alpha { 4 } else { 3 };
+    let len = pixels.len() / channels;
+    let mut buf = LinearBlock { planes: [[0.0; ENCODE_BLOCK]; 4], len };
+    fill(start, &mut buf);
+    let [mut tr, mut tg, mut tb, a] = buf.planes;
+    for plane in [&mut tr, &mut tg, &mut tb] {
+        for t in &mut plane[..len] {
+            *t = tone_map(*t * scale);
+        }
+    }
+    let toned = tr[..len].iter().zip(&tg[..len]).zip(&tb[..len]);
+    if alpha {
+        let (pixels, _) = pixels.as_chunks_mut::<4>();
+        for ((px, ((&r, &g), &b)), &a) in pixels.iter_mut().zip(toned).zip(&a[..len]) {
+            *px = [lut.encode(r), lut.encode(g), lut.encode(b), alpha_u8(a)];
+        }
+    } else {
+        let (pixels, _) = pixels.as_chunks_mut::<3>();
+        for (px, ((&r, &g), &b)) in pixels.iter_mut().zip(toned) {
+            *px = [lut.encode(r), lut.encode(g), lut.encode(b)];
+        }
+    }
 }
 
 /// Writes `image` as an 8-bit sRGB PNG (RGB, or RGBA with `options.alpha`), atomically.

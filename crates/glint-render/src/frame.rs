@@ -218,8 +218,6 @@ pub struct Renderer {
     points_picture: bool,
     /// `film` holds a copy of `point_frame` (made on demand).
     film_synced: bool,
-    /// Whitted frames write the first-hit AOVs ([`Renderer::set_surface_aovs`]).
-    surface_aovs: bool,
 }
 
 impl Renderer {
@@ -247,17 +245,7 @@ impl Renderer {
             progressive: false,
             points_picture: false,
             film_synced: false,
-            surface_aovs: true,
         })
-    }
-
-    /// Whether Whitted frames write the first-hit AOVs (normal, albedo, depth) into the film:
-    /// on by default (EXR output, the viewer's AOV views, chunks); off when only the picture is
-    /// wanted (PNG output, a benchmark of it), which then streams 16 bytes a pixel instead of
-    /// 44. The path and points modes always write them: their filters and compositing read
-    /// them.
-    pub fn set_surface_aovs(&mut self, on: bool) {
-        self.surface_aovs = on;
     }
 
     /// The scene as drawn now (animated to the current time).
@@ -323,6 +311,59 @@ impl Renderer {
         self.frame(camera, image, mode, Step::Pass { restart }, hooks)
     }
 
+    /// Draw a whole frame of `mode` as [`Renderer::render`] does and return its picture as the
+    /// 8-bit sRGB pixels [`Film::encode_srgb8`] gives for it, in `out`. A Whitted frame is
+    /// encoded band by band as it is traced, with no float film in between (a PNG render's
+    /// frame); the film then holds no picture (it is emptied). Other modes draw their film
+    /// and encode it.
+    ///
+    /// # Errors
+    /// As [`Renderer::render`].
+    pub fn render_srgb8(
+        &mut self,
+        camera: &Camera,
+        image: &ImageSettings,
+        mode: &Mode,
+        hooks: &Hooks,
+        options: &glint_image::PngOptions,
+        out: &mut Vec<u8>,
+    ) -> Result<FrameStats, RenderError> {
+        let Mode::Whitted(settings) = mode else {
+            let stats = self.render(camera, image, mode, hooks)?;
+            *out = self.film().encode_srgb8(options);
+            return Ok(stats);
+        };
+        self.check_frame(image, mode.kind())?;
+        let start = Instant::now();
+        (self.progressive, self.accumulated, self.points_picture) = (false, 0, false);
+        // The film would hold a stale picture: emptied, its memory given back.
+        self.film = Film::beauty_only(0, 0)?;
+        self.passes = 1;
+        let mut stats = whitted::render_srgb8(&self.world, camera, image, settings, hooks, options, out)?;
+        stats.elapsed = start.elapsed();
+        stats.passes = 1;
+        stats.summary = self.whitted_summary(image, &stats);
+        self.accumulated = 1;
+        Ok(stats)
+    }
+
+    /// Refuse a frame of mode `kind` the scene or the settings cannot give.
+    fn check_frame(&self, image: &ImageSettings, kind: RenderMode) -> Result<(), RenderError> {
+        if !self.supports(kind) {
+            return Err(RenderError::InvalidSetting(match kind {
+                RenderMode::Points => "this scene has no point clouds for the points mode".into(),
+                _ => "this scene has only point clouds: the ray-tracing modes have nothing to trace".into(),
+            }));
+        }
+        if image.window.is_some() && kind == RenderMode::Points {
+            return Err(RenderError::InvalidSetting(
+                "a crop window: the points mode reconstructs the whole frame at once (pull-push), render it whole"
+                    .into(),
+            ));
+        }
+        check_frame_memory(image, kind)
+    }
+
     /// The one mode dispatch.
     fn frame(
         &mut self,
@@ -332,19 +373,7 @@ impl Renderer {
         step: Step,
         hooks: &Hooks,
     ) -> Result<FrameStats, RenderError> {
-        if !self.supports(mode.kind()) {
-            return Err(RenderError::InvalidSetting(match mode.kind() {
-                RenderMode::Points => "this scene has no point clouds for the points mode".into(),
-                _ => "this scene has only point clouds: the ray-tracing modes have nothing to trace".into(),
-            }));
-        }
-        if image.window.is_some() && mode.kind() == RenderMode::Points {
-            return Err(RenderError::InvalidSetting(
-                "a crop window: the points mode reconstructs the whole frame at once (pull-push), render it whole"
-                    .into(),
-            ));
-        }
-        check_frame_memory(image, mode.kind())?;
+        self.check_frame(image, mode.kind())?;
         let start = Instant::now();
         // Until this frame is done, there is nothing to refine.
         (self.progressive, self.accumulated) = (false, 0);
@@ -362,6 +391,22 @@ impl Renderer {
         Ok(stats)
     }
 
+    /// The one-line summary of a whole Whitted frame.
+    fn whitted_summary(&self, image: &ImageSettings, stats: &FrameStats) -> String {
+        format!(
+            "whitted {}x{} at {} spp in {:.3} s ({:.1} Mrays/s, {}, buffers {:.1} ms), {} NaN/inf samples dropped{}",
+            image.width,
+            image.height,
+            stats.samples_per_pixel,
+            stats.elapsed.as_secs_f64(),
+            stats.mrays_per_second(),
+            self.built(),
+            stats.setup.as_secs_f64() * 1e3,
+            stats.rejected_samples,
+            clamped_note(stats.clamped_samples),
+        )
+    }
+
     fn whitted(
         &mut self,
         camera: &Camera,
@@ -371,7 +416,7 @@ impl Renderer {
         hooks: &Hooks,
     ) -> Result<FrameStats, RenderError> {
         self.points_picture = false;
-        let setup = self.size_film(image, self.surface_aovs, false)?;
+        let setup = self.size_film(image, true, false)?;
         let world = &self.world;
         let mut stats = match step {
             Step::Whole => {
@@ -406,18 +451,7 @@ impl Renderer {
         stats.passes = self.passes;
         stats.setup = setup;
         if step == Step::Whole {
-            stats.summary = format!(
-                "whitted {}x{} at {} spp in {:.3} s ({:.1} Mrays/s, {}, buffers {:.1} ms), {} NaN/inf samples dropped{}",
-                image.width,
-                image.height,
-                stats.samples_per_pixel,
-                stats.elapsed.as_secs_f64(),
-                stats.mrays_per_second(),
-                self.built(),
-                setup.as_secs_f64() * 1e3,
-                stats.rejected_samples,
-                clamped_note(stats.clamped_samples),
-            );
+            stats.summary = self.whitted_summary(image, &stats);
         }
         Ok(stats)
     }

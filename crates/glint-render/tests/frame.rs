@@ -147,45 +147,55 @@ fn a_mode_without_content_is_refused() {
     assert!(r.render(&camera, &ImageSettings::new(8, 8), &mode(RenderMode::Points), &Hooks::default()).is_err());
 }
 
-/// A renderer told to write no first-hit AOVs (a PNG's frame) gives the same beauty bits as one
-/// that writes them, for every Whitted path: both kernels, supersampled, a crop window off the
-/// tile grid, refinement passes; its film then holds no AOV planes. The path and points modes
-/// write them all the same (their filters and compositing read them).
+/// A frame drawn straight to 8-bit sRGB (a PNG render's) is the film's encoding byte for byte,
+/// on every Whitted path (both kernels, supersampled, a crop window off the tile grid and one
+/// on it) and every tone map, exposure and alpha setting; other modes draw their film and
+/// encode it. The film then holds no stale picture.
 #[test]
-fn frames_without_aovs_have_the_same_beauty() {
+fn frames_drawn_to_8_bits_are_the_films_encoding() {
+    use glint_image::{PngOptions, ToneMap};
     use glint_render::{Region, WhittedKernel};
     let scene = cloud_and_sphere();
     let camera = scene.camera;
-    let mut full = Renderer::new(scene.clone()).unwrap();
-    let mut lean = Renderer::new(scene).unwrap();
-    lean.set_surface_aovs(false);
-    let image = ImageSettings::new(40, 24);
-    let window = image.sub(Region { x0: 5, y0: 3, width: 21, height: 13 });
-    for kernel in [WhittedKernel::Batched, WhittedKernel::Scalar] {
+    let mut r = Renderer::new(scene).unwrap();
+    let image = ImageSettings::new(40, 27);
+    let off_grid = image.sub(Region { x0: 5, y0: 3, width: 21, height: 13 });
+    let on_grid = image.sub(Region { x0: 16, y0: 8, width: 24, height: 19 });
+    let options = [
+        PngOptions::default(),
+        PngOptions { exposure: 1.5, tone_map: ToneMap::Aces, alpha: true },
+        PngOptions { exposure: -1.0, tone_map: ToneMap::Reinhard, alpha: false },
+    ];
+    let Mode::Whitted(base) = mode(RenderMode::Whitted) else { unreachable!() };
+    let mut bytes = Vec::new();
+    for kernel in [WhittedKernel::Batched, WhittedKernel::BatchedBaseline, WhittedKernel::Scalar] {
         for side in [1, 2] {
-            let Mode::Whitted(base) = mode(RenderMode::Whitted) else { unreachable!() };
             let m = Mode::Whitted(glint_render::WhittedSettings { kernel, samples_per_side: side, ..base });
-            for image in [image, window] {
-                full.render(&camera, &image, &m, &Hooks::default()).unwrap();
-                lean.render(&camera, &image, &m, &Hooks::default()).unwrap();
-                let what = format!("{kernel:?}, {side}x{side} samples, {}x{}", image.width, image.height);
-                assert!(full.film().has_surface() && !lean.film().has_surface(), "{what}");
-                assert!(lean.film().surface.is_empty(), "{what}: no AOV plane");
-                assert!(full.film().pixels == lean.film().pixels, "{what}: beauty differs");
-                assert_eq!(lean.film().aov_image().channels.len(), 4, "{what}: R G B A only");
-            }
-            for restart in [true, false, false] {
-                full.add_pass(&camera, &image, &m, restart, &Hooks::default()).unwrap();
-                lean.add_pass(&camera, &image, &m, restart, &Hooks::default()).unwrap();
-                assert!(full.film().pixels == lean.film().pixels, "{kernel:?}: passes differ");
+            for (image, o) in [image, off_grid, on_grid].into_iter().zip(options) {
+                let what = format!("{kernel:?}, {side}x{side} samples, {}x{}, {o:?}", image.width, image.height);
+                r.render(&camera, &image, &m, &Hooks::default()).unwrap();
+                let want = r.film().encode_srgb8(&o);
+                let stats = r.render_srgb8(&camera, &image, &m, &Hooks::default(), &o, &mut bytes).unwrap();
+                assert!(bytes == want, "{what}: the bytes differ");
+                assert!(stats.rays.total() > 0 && stats.summary.starts_with("whitted"), "{what}: {stats:?}");
+                assert_eq!((r.film().pixels.len(), r.accumulated()), (0, 1), "{what}: no stale film");
             }
         }
     }
     for kind in [RenderMode::Path, RenderMode::Points] {
-        full.render(&camera, &image, &mode(kind), &Hooks::default()).unwrap();
-        lean.render(&camera, &image, &mode(kind), &Hooks::default()).unwrap();
-        let (a, b) = (full.film(), lean.film());
-        assert!(a.has_surface() && b.has_surface(), "{kind:?}: its AOVs are written");
-        assert!(a.pixels == b.pixels && a.surface == b.surface, "{kind:?}");
+        r.render(&camera, &image, &mode(kind), &Hooks::default()).unwrap();
+        let want = r.film().encode_srgb8(&options[1]);
+        r.render_srgb8(&camera, &image, &mode(kind), &Hooks::default(), &options[1], &mut bytes).unwrap();
+        assert!(bytes == want, "{kind:?}");
     }
+    // A refused frame is refused the same way.
+    let e = r.render_srgb8(
+        &camera,
+        &ImageSettings::new(0, 4),
+        &mode(RenderMode::Whitted),
+        &Hooks::default(),
+        &options[0],
+        &mut bytes,
+    );
+    assert!(e.is_err());
 }

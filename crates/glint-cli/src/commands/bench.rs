@@ -10,6 +10,7 @@ use anyhow::{Context, Result, bail};
 use glint_core::random::SampleStream;
 use glint_core::sampling::sample_cosine_hemisphere;
 use glint_core::{Frame, Ray, Vec2, Vec3};
+use glint_image::PngOptions;
 use glint_render::{Hooks, ImageSettings, Mode, Renderer, Schedule, WhittedSettings, World};
 use glint_scene::{Mesh, Scene};
 use rayon::prelude::*;
@@ -293,9 +294,6 @@ fn whitted(a: &BenchWhittedArgs) -> Result<()> {
         if let Some(s) = sky_scene {
             renderers.push(("--sky map", Renderer::new(s)?));
         }
-        for (_, r) in &mut renderers {
-            r.set_surface_aovs(a.aovs);
-        }
         // Every (sky, kernel) variant, its frames interleaved with the others' so that all see
         // the same machine load; each warmed up first.
         let mut variants: Vec<(usize, KernelArg)> = Vec::new();
@@ -305,14 +303,25 @@ fn whitted(a: &BenchWhittedArgs) -> Result<()> {
             }
         }
         let mode = |k: KernelArg| Mode::Whitted(WhittedSettings { kernel: k.into(), ..whitted });
+        // A frame as `glint render -o x.png` draws it (encoded to 8 bits band by band), or with
+        // --aovs as `-o x.exr` and the viewer do (a float film with every AOV).
+        let mut pixels = Vec::new();
+        let mut frame = |renderer: &mut Renderer, k: KernelArg| {
+            let hooks = Hooks::default();
+            if a.aovs {
+                renderer.render(&camera, &image, &mode(k), &hooks)
+            } else {
+                renderer.render_srgb8(&camera, &image, &mode(k), &hooks, &PngOptions::default(), &mut pixels)
+            }
+        };
         for &(r, k) in &variants {
-            renderers[r].1.render(&camera, &image, &mode(k), &Hooks::default())?;
+            frame(&mut renderers[r].1, k)?;
         }
         let mut ms = vec![Vec::new(); variants.len()];
         let mut rays = vec![0; variants.len()];
         for _ in 0..a.frames {
             for (v, &(r, k)) in variants.iter().enumerate() {
-                let stats = renderers[r].1.render(&camera, &image, &mode(k), &Hooks::default())?;
+                let stats = frame(&mut renderers[r].1, k)?;
                 ms[v].push(stats.elapsed.as_secs_f64() * 1e3);
                 rays[v] = stats.rays.total();
             }
@@ -328,7 +337,7 @@ fn whitted(a: &BenchWhittedArgs) -> Result<()> {
                 a.height,
                 rayon::current_num_threads(),
                 image.schedule,
-                if a.aovs { "beauty + AOVs" } else { "beauty" },
+                if a.aovs { "float film + AOVs" } else { "to 8-bit sRGB" },
                 renderers[r].0,
                 med,
                 1e3 / med,

@@ -579,26 +579,41 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             points::prepare_clouds(&mut scene, &args.points, args.quiet)?;
         }
         let mut renderer = Renderer::new(scene)?;
-        // A PNG shows the beauty alone: the film then holds no AOV planes (16 bytes a pixel
-        // instead of 44; a 1080p Whitted frame's page faults and its exit fell by ~15 ms).
-        renderer.set_surface_aovs(outputs.iter().any(|o| !matches!(output_kind(&o.output), Ok(OutputKind::Png))));
         for out in outputs.iter().filter(|o| !skip(args, o)) {
             if let Some(t) = out.time {
                 renderer.set_time(t);
             }
             let progress = LazyProgress::new(u64::from(image.height), !args.quiet && !points_mode);
             let advance = |rows| progress.advance(rows);
-            let stats = renderer.render(&camera, &image, &frame_mode, &Hooks::with_progress(&advance))?;
-            progress.finish();
-            write_output(args, &out.output, renderer.film(), &stats.summary)?;
+            let hooks = Hooks::with_progress(&advance);
+            let kind = output_kind(&out.output)?;
+            if kind == OutputKind::Png {
+                // Encoded as it is drawn: a Whitted frame makes no float film at all.
+                let options = png_options(args);
+                let mut pixels = Vec::new();
+                let stats = renderer.render_srgb8(&camera, &image, &frame_mode, &hooks, &options, &mut pixels)?;
+                progress.finish();
+                glint_image::write_png_srgb8(&out.output, image.width, image.height, options.alpha, &pixels)
+                    .with_context(|| format!("cannot write {}", out.output.display()))?;
+                if !args.quiet {
+                    eprintln!("glint: {} -> {}", stats.summary, out.output.display());
+                }
+            } else {
+                let stats = renderer.render(&camera, &image, &frame_mode, &hooks)?;
+                progress.finish();
+                write_output(args, &out.output, renderer.film(), &stats.summary)?;
+            }
         }
         Ok(())
     })
 }
 
+fn png_options(args: &RenderArgs) -> PngOptions {
+    PngOptions { exposure: args.exposure, tone_map: args.tonemap.into(), alpha: args.alpha }
+}
+
 fn write_output(args: &RenderArgs, output: &Path, film: &Film, summary: &str) -> Result<()> {
-    let options = PngOptions { exposure: args.exposure, tone_map: args.tonemap.into(), alpha: args.alpha };
-    write_film(output, output_kind(output)?, film, &options, summary, args.quiet)
+    write_film(output, output_kind(output)?, film, &png_options(args), summary, args.quiet)
 }
 
 /// Write a film to `output`: the beauty as PNG, or every AOV as EXR (atomically).

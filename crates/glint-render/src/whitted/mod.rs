@@ -20,13 +20,14 @@ mod tracer;
 pub use tracer::{FirstHit, Tracer};
 
 use crate::bands::{self, Hooks};
-use crate::film::{Film, FilmRows, MAX_SAMPLE_RADIANCE, PixelRecord};
+use crate::film::{Film, FilmPixel, FilmRows, MAX_SAMPLE_RADIANCE, PixelRecord};
 use crate::settings::{ImageSettings, WhittedKernel, WhittedSettings};
 use crate::stats::{BandStats, FrameStats};
 use crate::{RenderError, World};
 use glint_core::random::SampleStream;
 use glint_core::sampling::stratified_2d;
 use glint_core::{Rgb, Vec2, Vec3};
+use glint_image::PngOptions;
 use glint_scene::Camera;
 use std::time::Instant;
 
@@ -79,6 +80,65 @@ pub fn render(
     film: &mut Film,
 ) -> Result<FrameStats, RenderError> {
     image.validate()?;
+    let settings = frame_settings(world, camera, settings, samples)?;
+    if settings.kernel != WhittedKernel::Scalar
+        && let Some(aligned) = aligned_window(image)
+    {
+        return render_window(world, camera, image, &aligned, &settings, samples, hooks, film);
+    }
+    let w = image.width as usize;
+    film.reset(image.width, image.height)?;
+    let parts = film.bands_mut(w * BAND_ROWS).into_iter().map(BandOut::Film).collect();
+    trace_bands(world, camera, image, &settings, samples, hooks, parts)
+}
+
+/// Render a whole Whitted frame (its N×N stratified samples) straight to the 8-bit sRGB pixels
+/// [`Film::encode_srgb8`] would give for it (`RGB`, or `RGBA` with `options.alpha`), into
+/// `out`: each band of rows is traced into a band-sized beauty buffer and encoded while it is
+/// in the cache. No whole-frame float film is made (a 1080p frame's is 33 MB, whose page
+/// faults, fill and release cost a PNG render about a tenth of its time). A crop window off
+/// the tile grid goes through a film.
+///
+/// # Errors
+/// As [`render`]; [`RenderError::Memory`] when the memory budget refuses the output.
+#[allow(clippy::too_many_arguments)]
+pub fn render_srgb8(
+    world: &World,
+    camera: &Camera,
+    image: &ImageSettings,
+    settings: &WhittedSettings,
+    hooks: &Hooks,
+    options: &PngOptions,
+    out: &mut Vec<u8>,
+) -> Result<FrameStats, RenderError> {
+    image.validate()?;
+    let samples = Samples::Stratified;
+    let settings = frame_settings(world, camera, settings, samples)?;
+    if settings.kernel != WhittedKernel::Scalar && aligned_window(image).is_some() {
+        let mut film = Film::beauty_only(image.width, image.height)?;
+        let stats = render(world, camera, image, &settings, samples, hooks, &mut film)?;
+        *out = film.encode_srgb8(options);
+        return Ok(stats);
+    }
+    let channels = if options.alpha { 4 } else { 3 };
+    let (w, count) = (image.width as usize, image.pixels());
+    let what = || format!("the 8-bit pixels of a {} x {} image", image.width, image.height);
+    *out = Vec::new();
+    *out = glint_core::memory::try_with_capacity(what, count.saturating_mul(channels))?;
+    out.resize(count * channels, 0);
+    let band_bytes = w * BAND_ROWS * channels;
+    let parts = out.chunks_mut(band_bytes.max(1)).map(|bytes| BandOut::Srgb8 { bytes, options }).collect();
+    trace_bands(world, camera, image, &settings, samples, hooks, parts)
+}
+
+/// The settings a frame of `samples` traces with: one sample a pixel for a progressive pass;
+/// the scalar kernel where the batched one cannot go.
+fn frame_settings(
+    world: &World,
+    camera: &Camera,
+    settings: &WhittedSettings,
+    samples: Samples,
+) -> Result<WhittedSettings, RenderError> {
     let mut settings = match samples {
         Samples::Stratified | Samples::One(_) => *settings,
         Samples::Pass(_) => WhittedSettings { samples_per_side: 1, ..*settings },
@@ -89,14 +149,71 @@ pub fn render(
         settings.kernel = WhittedKernel::Scalar;
     }
     settings.validate()?;
-    if settings.kernel != WhittedKernel::Scalar
-        && let Some(aligned) = aligned_window(image)
-    {
-        return render_window(world, camera, image, &aligned, &settings, samples, hooks, film);
+    Ok(settings)
+}
+
+/// Where a band's pixels go.
+enum BandOut<'a> {
+    /// Into the film's rows.
+    Film(FilmRows<'a>),
+    /// Through a band-sized buffer of beauty into these 8-bit bytes ([`render_srgb8`]).
+    Srgb8 { bytes: &'a mut [u8], options: &'a PngOptions },
+}
+
+thread_local! {
+    /// Each worker thread's band of beauty for [`BandOut::Srgb8`], reused band after band.
+    static BAND: std::cell::Cell<Vec<FilmPixel>> = const { std::cell::Cell::new(Vec::new()) };
+}
+
+impl BandOut<'_> {
+    /// Run `trace` on the band's rows (band `index` of `pixels_per_band`-pixel bands) and
+    /// put its pixels where they go.
+    fn fill(self, index: usize, pixels_per_band: usize, trace: impl FnOnce(FilmRows) -> BandStats) -> BandStats {
+        match self {
+            BandOut::Film(rows) => trace(rows),
+            BandOut::Srgb8 { bytes, options } => {
+                let channels = if options.alpha { 4 } else { 3 };
+                let first = index * pixels_per_band;
+                // Taken out and put back: nothing else on this thread can see it meanwhile.
+                let mut band = BAND.take();
+                band.clear();
+                band.resize(bytes.len() / channels, FilmPixel::default());
+                let stats = trace(FilmRows { pixels: &mut band, surface: &mut [] });
+                glint_image::encode_srgb8_into(
+                    options,
+                    first,
+                    |start, block| {
+                        let len = block.len();
+                        let Some(pixels) = band.get(start - first..start - first + len) else { return };
+                        let [r, g, b, a] = &mut block.planes;
+                        for (i, p) in pixels.iter().enumerate() {
+                            (r[i], g[i], b[i], a[i]) = (p.colour.x, p.colour.y, p.colour.z, p.coverage);
+                        }
+                    },
+                    bytes,
+                );
+                BAND.set(band);
+                stats
+            }
+        }
     }
+}
+
+/// Trace every band of the frame into `parts` (band i's destination: rows i·[`BAND_ROWS`]
+/// onwards).
+fn trace_bands(
+    world: &World,
+    camera: &Camera,
+    image: &ImageSettings,
+    settings: &WhittedSettings,
+    samples: Samples,
+    hooks: &Hooks,
+    parts: Vec<BandOut>,
+) -> Result<FrameStats, RenderError> {
+    let settings = *settings;
     let start = Instant::now();
     let w = image.width as usize;
-    film.reset(image.width, image.height)?;
+    let per_band = w * BAND_ROWS;
     let rays = image.camera_rays(camera);
     let (film_x, film_y) = image.film_origin();
     // Ray footprints for sky filtering: a sample's angular width at the image centre (a
@@ -170,17 +287,20 @@ pub fn render(
         BandStats { rays: tracer.counts, rejected, clamped }
     };
 
-    let parts = film.bands_mut(w * BAND_ROWS);
     let totals = match settings.kernel {
-        WhittedKernel::Scalar => bands::run(parts, image.schedule, hooks, render_band)?,
+        WhittedKernel::Scalar => bands::run(parts, image.schedule, hooks, |i, out: BandOut| {
+            out.fill(i, per_band, |rows| render_band(i, rows))
+        })?,
         kernel => {
             let frame = batch::Frame::new(world, camera, image, &settings, samples);
             let baseline = kernel == WhittedKernel::BatchedBaseline;
-            bands::run(parts, image.schedule, hooks, |i, band: FilmRows| {
-                let rows = (band.len() / w) as u64;
-                let stats = isa::band(&frame, i, BAND_ROWS, band, baseline);
-                hooks.report(rows);
-                stats
+            bands::run(parts, image.schedule, hooks, |i, out: BandOut| {
+                out.fill(i, per_band, |band| {
+                    let rows = (band.len() / w) as u64;
+                    let stats = isa::band(&frame, i, BAND_ROWS, band, baseline);
+                    hooks.report(rows);
+                    stats
+                })
             })?
         }
     };
