@@ -123,9 +123,14 @@ pub fn render_srgb8(
     let channels = if options.alpha { 4 } else { 3 };
     let (w, count) = (image.width as usize, image.pixels());
     let what = || format!("the 8-bit pixels of a {} x {} image", image.width, image.height);
-    *out = Vec::new();
-    *out = glint_core::memory::try_with_capacity(what, count.saturating_mul(channels))?;
-    out.resize(count * channels, 0);
+    let bytes = count.saturating_mul(channels);
+    if out.capacity() < bytes {
+        // Not reallocated frame after frame (a benchmark's, an animation's): its pages stay.
+        *out = Vec::new();
+        *out = glint_core::memory::try_with_capacity(what, bytes)?;
+    }
+    out.clear();
+    out.resize(bytes, 0);
     let band_bytes = w * BAND_ROWS * channels;
     let parts = out.chunks_mut(band_bytes.max(1)).map(|bytes| BandOut::Srgb8 { bytes, options }).collect();
     trace_bands(world, camera, image, &settings, samples, hooks, parts)
