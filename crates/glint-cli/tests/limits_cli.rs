@@ -45,6 +45,14 @@ fn a_film_larger_than_max_memory_is_refused_with_what_it_needs() {
         assert_refused(&o, &["32768 x 4096", "GiB", "memory budget of 100.00 MiB", "--max-memory"]);
         assert_eq!(std::fs::read(d.join("out.png")).unwrap(), b"precious");
     }
+    // A PNG's Whitted frame is encoded as it is traced, with no float film: 1024² needs about
+    // 8 MB and fits in 20 MB; the same frame to EXR (film and every AOV) does not.
+    let args = ["--max-memory", "20M", "render", "tri.obj", "--width", "1024", "--height", "1024", "-q"];
+    let o = glint(&[&args[..], &["-o", "fits.png"]].concat(), &d);
+    assert!(o.status.success() && d.join("fits.png").exists(), "{}", stderr(&o));
+    let o = glint(&[&args[..], &["-o", "film.exr"]].concat(), &d);
+    assert_refused(&o, &["1024 x 1024", "film and buffers", "memory budget of 20.00 MiB"]);
+    assert!(!d.join("film.exr").exists());
     // The option itself is checked.
     assert_fails_cleanly(&["--max-memory", "lots", "render", "-o", "out.png"], "--max-memory", &d);
 }
@@ -72,11 +80,12 @@ fn a_mesh_whose_trees_exceed_max_memory_is_refused() {
 fn a_film_larger_than_ulimit_v_is_refused_not_aborted() {
     let d = scratch("limits-ulimit");
     write_triangle(&d);
-    // 1.5 GiB of address space: enough to start, far from the 16 GiB frame.
-    let args = ["render", "tri.obj", "--mode", "whitted", "--width", "32768", "--height", "4096", "-o", "out.png"];
+    // 1.5 GiB of address space: enough to start, far from the 16 GiB frame (a film with every
+    // AOV, as EXR output needs).
+    let args = ["render", "tri.obj", "--mode", "whitted", "--width", "32768", "--height", "4096", "-o", "out.exr"];
     let o = glint_under_ulimit(1_572_864, &args, &d);
     assert_refused(&o, &["32768 x 4096", "ulimit -v"]);
-    assert!(!d.join("out.png").exists());
+    assert!(!d.join("out.exr").exists());
     // A frame that fits renders under the same limit.
     let o = glint_under_ulimit(1_572_864, &["render", "tri.obj", "--width", "64", "--height", "48", "-q"], &d);
     assert!(o.status.success(), "{}", stderr(&o));

@@ -152,13 +152,24 @@ fn clamped_note(clamped: u64) -> String {
     }
 }
 
-/// Refuse a frame whose buffers cannot fit the memory budget.
-fn check_frame_memory(image: &ImageSettings, kind: RenderMode) -> Result<(), RenderError> {
+/// Bytes a whole Whitted frame drawn straight to 8-bit sRGB ([`Renderer::render_srgb8`]) holds
+/// per pixel at its peak: its 8-bit pixels (3, or 4 with alpha) and the PNG encoder's bytes
+/// (measured: 3.2 at 4096², peak RSS less the 8 × 8 frame's, over the pixels), rounded up. The
+/// band buffers are a few rows per thread.
+const WHITTED_SRGB8_BYTES_PER_PIXEL: u64 = 8;
+
+/// Refuse a frame whose buffers cannot fit the memory budget: `per_pixel` bytes a pixel of
+/// `buffers`.
+fn check_frame_memory(
+    image: &ImageSettings,
+    kind: RenderMode,
+    per_pixel: u64,
+    buffers: &str,
+) -> Result<(), RenderError> {
     let pixels = u64::from(image.width) * u64::from(image.height);
-    let per_pixel = frame_bytes_per_pixel(kind);
     let what = || {
         format!(
-            "a {} frame of {} x {} pixels (film and buffers, about {per_pixel} bytes per pixel)",
+            "a {} frame of {} x {} pixels ({buffers}, about {per_pixel} bytes per pixel)",
             kind.name(),
             image.width,
             image.height
@@ -333,7 +344,8 @@ impl Renderer {
             *out = self.film().encode_srgb8(options);
             return Ok(stats);
         };
-        self.check_frame(image, mode.kind())?;
+        self.check_content(image, mode.kind())?;
+        check_frame_memory(image, mode.kind(), WHITTED_SRGB8_BYTES_PER_PIXEL, "8-bit pixels, drawn band by band")?;
         let start = Instant::now();
         (self.progressive, self.accumulated, self.points_picture) = (false, 0, false);
         // The film would hold a stale picture: emptied, its memory given back.
@@ -348,7 +360,7 @@ impl Renderer {
     }
 
     /// Refuse a frame of mode `kind` the scene or the settings cannot give.
-    fn check_frame(&self, image: &ImageSettings, kind: RenderMode) -> Result<(), RenderError> {
+    fn check_content(&self, image: &ImageSettings, kind: RenderMode) -> Result<(), RenderError> {
         if !self.supports(kind) {
             return Err(RenderError::InvalidSetting(match kind {
                 RenderMode::Points => "this scene has no point clouds for the points mode".into(),
@@ -361,7 +373,7 @@ impl Renderer {
                     .into(),
             ));
         }
-        check_frame_memory(image, kind)
+        Ok(())
     }
 
     /// The one mode dispatch.
@@ -373,7 +385,8 @@ impl Renderer {
         step: Step,
         hooks: &Hooks,
     ) -> Result<FrameStats, RenderError> {
-        self.check_frame(image, mode.kind())?;
+        self.check_content(image, mode.kind())?;
+        check_frame_memory(image, mode.kind(), frame_bytes_per_pixel(mode.kind()), "film and buffers")?;
         let start = Instant::now();
         // Until this frame is done, there is nothing to refine.
         (self.progressive, self.accumulated) = (false, 0);
@@ -629,7 +642,7 @@ impl Renderer {
                 mode.kind().name()
             )));
         }
-        check_frame_memory(image, mode.kind())?;
+        check_frame_memory(image, mode.kind(), frame_bytes_per_pixel(mode.kind()), "film and buffers")?;
         let part_name = |stats: &FrameStats| match region {
             Some(r) => format!("tile {}/{} ({}x{} at {},{})", share.index, share.count, r.width, r.height, r.x0, r.y0),
             None if stats.passes == 0 => String::new(),
