@@ -207,7 +207,8 @@ impl Film {
         self.width as usize * self.height as usize
     }
 
-    /// Whether the film holds the first-hit AOVs (normal, albedo, depth).
+    /// Whether the film holds the first-hit AOVs (normal, albedo, depth); a film of no pixels
+    /// counts as holding them (there is nothing to hold).
     #[must_use]
     pub fn has_surface(&self) -> bool {
         self.surface.len() == self.pixels.len()

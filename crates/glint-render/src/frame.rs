@@ -429,7 +429,7 @@ impl Renderer {
         hooks: &Hooks,
     ) -> Result<FrameStats, RenderError> {
         self.points_picture = false;
-        let setup = self.size_film(image, true, false)?;
+        let setup = self.size_film(image, false)?;
         let world = &self.world;
         let mut stats = match step {
             Step::Whole => {
@@ -481,7 +481,7 @@ impl Renderer {
         let world = &self.world;
         match step {
             Step::Whole => {
-                let film = self.size_film(image, true, true)?;
+                let film = self.size_film(image, true)?;
                 let world = &self.world;
                 let mut stats = render_path(world, camera, image, settings, hooks, &mut self.film)?;
                 stats.setup += film;
@@ -568,19 +568,18 @@ impl Renderer {
         Ok(stats)
     }
 
-    /// Make the film the size of `image`'s frame, with the first-hit AOVs when `surface` and
-    /// the path AOVs when `path_aovs`, before the frame's clock starts: a new size allocates
-    /// and first touches it (16 bytes a pixel for the beauty, 44 with the AOVs: 91 MB at
-    /// 1920 × 1080, whose page faults a single frame would otherwise time as rendering).
+    /// Make the film the size of `image`'s frame, with the first-hit AOVs (a frame drawn to 8
+    /// bits may have left it without them) and the path AOVs when `path_aovs`, before the
+    /// frame's clock starts: a new size allocates and first touches it (44 bytes a pixel: 91 MB
+    /// at 1920 × 1080, whose page faults a single frame would otherwise time as rendering).
     /// Returns that time (zero when the size and planes were drawn before): `FrameStats::setup`.
-    fn size_film(&mut self, image: &ImageSettings, surface: bool, path_aovs: bool) -> Result<Duration, RenderError> {
+    fn size_film(&mut self, image: &ImageSettings, path_aovs: bool) -> Result<Duration, RenderError> {
         let sized = (self.film.width, self.film.height) == (image.width, image.height);
-        if sized && self.film.has_surface() == surface && (!path_aovs || self.film.path.len() == self.film.pixels.len())
-        {
+        if sized && self.film.has_surface() && (!path_aovs || self.film.path.len() == self.film.pixels.len()) {
             return Ok(Duration::ZERO);
         }
         let start = Instant::now();
-        self.film.reset_with(image.width, image.height, surface)?;
+        self.film.reset_with(image.width, image.height, true)?;
         if path_aovs {
             self.film.path_aovs_mut()?;
         }
