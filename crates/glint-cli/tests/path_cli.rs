@@ -37,6 +37,27 @@ fn path_mode_writes_png_and_aov_exr() {
 }
 
 #[test]
+fn bench_path_reports_each_stage_as_render_does() {
+    // The trace and filter stages `glint render` prints, as medians over the frames.
+    let dir = scratch("bench-path-stages");
+    std::fs::write(dir.join("tetra.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+        .unwrap();
+    let args = ["bench", "path", "tetra.obj", "--filter", "guided", "--width", "24", "--height", "16", "--frames", "3"];
+    let o = glint(&args, &dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let line = out.lines().find(|l| l.starts_with("path 24x16")).expect("a result line");
+    let stages = line.split("stages (medians, ms): ").nth(1).expect("stages");
+    let names: Vec<&str> = stages.split(", ").map(|s| s.split(' ').next().unwrap_or("")).collect();
+    assert_eq!(names, ["trace", "filter"], "{line}");
+    for stage in stages.split(", ") {
+        let ms: f64 = stage.split(' ').nth(1).and_then(|v| v.parse().ok()).expect("a time");
+        assert!(ms.is_finite() && ms >= 0.0, "{line}");
+    }
+    assert!(out.lines().last().is_some_and(|l| l.starts_with("mpaths_per_s_median=")), "{out}");
+}
+
+#[test]
 fn a_time_budget_renders_several_passes() {
     let dir = scratch("path-time");
     let o = glint(

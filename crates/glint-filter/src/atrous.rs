@@ -117,6 +117,22 @@ fn keep_planes<const K: usize>(planes: [Padded; K]) {
 /// The largest image whose planes [`keep_planes`] keeps: 2048 × 2048 (168 MB of planes).
 const KEPT_PIXELS: usize = 1 << 22;
 
+/// The planes of a `w`×`h` filter with `p`'s iterations, made (their pages written on every
+/// thread) and kept for the next call: see [`crate::reserve`].
+pub(crate) fn reserve(isa: Isa, w: usize, h: usize, p: &AtrousParams) {
+    if w == 0 || h == 0 || p.iterations == 0 || p.iterations > MAX_ITERATIONS {
+        return;
+    }
+    let reach = (2usize << (p.iterations - 1)).min(w + LANES);
+    let lanes = simd::atrous_lanes(isa);
+    // The guide's four planes, the colour's three and the next colour's three.
+    let mut planes = [4, 3, 3].map(|count| take_planes(lanes, w, h, reach, count));
+    for p in &mut planes {
+        p.planes_mut().par_chunks_mut(1 << 14).for_each(|c| c.fill(0.0));
+    }
+    keep_planes(planes);
+}
+
 pub(crate) fn atrous_into_named(
     isa: Isa,
     input: [&[f32]; 3],

@@ -211,6 +211,48 @@ impl Scratch {
     }
 }
 
+impl Scratch {
+    /// Every buffer at its size for a strip of `slots` coefficient rows (zeros but the ring,
+    /// whose slots are each written before they are read).
+    fn size<const D: usize>(&mut self, lay: &Layout, slots: usize) {
+        let Layout { n8, s8, ps, .. } = *lay;
+        let (nq, nab, ng) = (quantities(D), 3 * D + 3, D + 3);
+        zeroed(&mut self.enter, ng * ps);
+        zeroed(&mut self.leave, ng * ps);
+        zeroed(&mut self.zeros, (nab * n8).max(ng * ps));
+        zeroed(&mut self.colsum, nq * s8);
+        zeroed(&mut self.rowsum, nq * BLOCK);
+        zeroed(&mut self.ab, nab * s8);
+        self.ring.resize(slots * nab * n8, ZERO);
+        zeroed(&mut self.colsum2, nab * n8);
+        zeroed(&mut self.guide_row, ng * ps);
+    }
+}
+
+/// The strips' buffers of a `w`×`h` filter with these parameters, made (their pages written,
+/// each strip's on the thread that takes it) and kept for the next call: see [`crate::reserve`].
+pub(crate) fn reserve(w: usize, h: usize, p: &GuidedParams) {
+    if w == 0 || h == 0 || p.radius == 0 {
+        return;
+    }
+    let r = p.radius.min(w.max(h));
+    let lay = Layout::new(w, h, r);
+    let size = |(y0, y1): (usize, usize)| {
+        let slots = (2 * r + 2).min((y1 + r).min(h) - y0.saturating_sub(r));
+        let mut sc = Scratch::take();
+        match p.channels {
+            GuideChannels::Grey => sc.size::<1>(&lay, slots),
+            GuideChannels::Normal => sc.size::<3>(&lay, slots),
+            GuideChannels::NormalDepth => sc.size::<4>(&lay, slots),
+        }
+        // The ring's new pages too (`size` keeps its contents).
+        sc.ring.fill(ZERO);
+        sc
+    };
+    let kept: Vec<Scratch> = strip_bounds(h, r).into_par_iter().map(size).collect();
+    kept.into_iter().for_each(Scratch::give_back);
+}
+
 /// `v` := `n` zero vectors.
 fn zeroed(v: &mut Vec<Chunk>, n: usize) {
     v.clear();
@@ -253,15 +295,7 @@ pub(crate) fn strip<const D: usize, K: BoxSum>(k: K, job: StripJob<'_>) {
     let slots = (2 * r + 2).min(c1 - c0);
 
     let mut sc = Scratch::take();
-    zeroed(&mut sc.enter, ng * ps);
-    zeroed(&mut sc.leave, ng * ps);
-    zeroed(&mut sc.zeros, (nab * n8).max(ng * ps));
-    zeroed(&mut sc.colsum, nq * s8);
-    zeroed(&mut sc.rowsum, nq * BLOCK);
-    zeroed(&mut sc.ab, nab * s8);
-    sc.ring.resize(slots * nab * n8, ZERO); // every slot is written before it is read
-    zeroed(&mut sc.colsum2, nab * n8);
-    zeroed(&mut sc.guide_row, ng * ps);
+    sc.size::<D>(&lay, slots);
 
     let mut finite = true;
     let mut win1 = Window { lo: c0.saturating_sub(r), hi: c0.saturating_sub(r) };

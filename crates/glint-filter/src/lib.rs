@@ -302,6 +302,18 @@ pub(crate) fn apply_into_named(
     }
 }
 
+/// Make and keep the working memory `filter` needs for a `width`×`height` image, so that the
+/// next call of that size does not pay for fresh pages (a one-frame render: `glint render`
+/// sizes its buffers before its clock starts, so its filter time is a later frame's). Nothing
+/// to do for the filters without kept buffers, or for sizes and parameters the call would refuse.
+pub fn reserve(filter: &Filter, width: usize, height: usize) {
+    match filter {
+        Filter::Guided(p) => guided::reserve(width, height, p),
+        Filter::Atrous(p) => atrous::reserve(Isa::detect(), width, height, p),
+        Filter::None | Filter::Bilateral(_) => {}
+    }
+}
+
 /// The guided image filter (He, Sun, Tang 2010) with a multi-channel guide I built from
 /// `guide` as `p.channels` says. For every window w_k of radius r:
 /// `a_k = (Σ_k + E)⁻¹ cov_k(I, N)`, `b_k = mean_k(N) − a_k·mean_k(I)`, E = diag(ε_n, …, ε_z);

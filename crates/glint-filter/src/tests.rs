@@ -336,6 +336,30 @@ fn apply_into_matches_apply() {
     }
 }
 
+#[test]
+fn reserved_buffers_change_no_result() {
+    // Reserving for this size, for another size, and for parameters a call would refuse, then
+    // filtering: the same bits as the first call (kept buffers carry nothing over).
+    let scene = random_scene(41, 23, 8);
+    let refused = [
+        Filter::Guided(GuidedParams { radius: 0, ..GuidedParams::for_width(41) }),
+        Filter::Atrous(AtrousParams { iterations: 0, ..AtrousParams::default() }),
+        Filter::Atrous(AtrousParams { iterations: 17, ..AtrousParams::default() }),
+    ];
+    for filter in all_filters() {
+        let want = apply(&filter, scene.input(), &scene.guide()).expect("valid");
+        for (w, h) in [(41, 23), (7, 300), (0, 5), (5, 0)] {
+            crate::reserve(&filter, w, h);
+        }
+        for other in &refused {
+            crate::reserve(other, 41, 23);
+        }
+        crate::reserve(&filter, 41, 23);
+        let got = apply(&filter, scene.input(), &scene.guide()).expect("valid");
+        assert_eq!(got, want, "{filter:?}");
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
 

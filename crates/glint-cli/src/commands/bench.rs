@@ -40,6 +40,26 @@ pub(super) fn median(v: &mut [f64]) -> f64 {
     if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
 }
 
+/// Each named stage's times over a run's frames, in the order the stages first appeared.
+#[derive(Clone, Debug, Default)]
+pub(super) struct StageTimes(Vec<(&'static str, Vec<f64>)>);
+
+impl StageTimes {
+    /// Add one frame's time of stage `name`, in ms.
+    pub(super) fn push(&mut self, name: &'static str, ms: f64) {
+        match self.0.iter_mut().find(|(n, _)| *n == name) {
+            Some((_, v)) => v.push(ms),
+            None => self.0.push((name, vec![ms])),
+        }
+    }
+
+    /// Every stage's median: "trace 12.30, filter 4.50".
+    pub(super) fn medians(&mut self) -> String {
+        let split: Vec<String> = self.0.iter_mut().map(|(n, v)| format!("{n} {:.2}", median(v))).collect();
+        split.join(", ")
+    }
+}
+
 /// Pixels in 4×2 tiles (row-major inside a tile, tiles row-major, edge tiles clipped), so that
 /// 8 consecutive primary rays form a coherent packet.
 fn tile_order(width: u32, height: u32) -> impl Iterator<Item = (u32, u32)> {
@@ -381,11 +401,16 @@ fn path(a: &BenchPathArgs) -> Result<()> {
         }
         let n = a.kernel.len();
         let (mut ms, mut mrays) = (vec![Vec::with_capacity(a.frames); n], vec![Vec::with_capacity(a.frames); n]);
+        // Each stage's times (trace, filter), per kernel, as `glint render` reports them.
+        let mut stages = vec![StageTimes::default(); n];
         for _ in 0..a.frames {
             for (i, &k) in a.kernel.iter().enumerate() {
                 let stats = renderer.render(&camera, &image, &mode(k), &Hooks::default())?;
                 ms[i].push(stats.elapsed.as_secs_f64() * 1e3);
                 mrays[i].push(stats.mrays_per_second());
+                for &(name, d) in &stats.stages {
+                    stages[i].push(name, d.as_secs_f64() * 1e3);
+                }
             }
         }
         let paths = f64::from(w) * f64::from(h) * f64::from(a.spp);
@@ -394,13 +419,14 @@ fn path(a: &BenchPathArgs) -> Result<()> {
             let med = median(&mut ms[i]);
             mpaths.push(paths / med / 1e3);
             out!(
-                "path {w}x{h}, {} spp, {} bounces, filter {}, {} threads, {k:?}: median {med:.2} ms/frame, {:.3} M paths/s, {:.1} Mrays/s",
+                "path {w}x{h}, {} spp, {} bounces, filter {}, {} threads, {k:?}: median {med:.2} ms/frame, {:.3} M paths/s, {:.1} Mrays/s; stages (medians, ms): {}",
                 a.spp,
                 path.max_bounces,
                 path.filter,
                 rayon::current_num_threads(),
                 mpaths[i],
                 median(&mut mrays[i]),
+                stages[i].medians(),
             );
         }
         let mpaths = mpaths[0];

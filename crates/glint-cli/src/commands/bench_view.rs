@@ -4,7 +4,7 @@
 //! text) and is timed, so frame rates are measured, not guessed. Full resolution by default;
 //! `--adaptive` measures the lowered resolution the window uses while the camera moves.
 
-use super::bench::median;
+use super::bench::{StageTimes, median};
 use super::points::prepare_clouds;
 use super::render::filter_from_args;
 use crate::cli::{BenchViewArgs, FilterOptions, PointArgs, clap_defaults};
@@ -49,7 +49,7 @@ pub fn run(args: &BenchViewArgs) -> Result<()> {
         let turn = std::f32::consts::TAU / args.frames as f32 / glint_view::camera::LOOK_PER_PIXEL;
         let input = InputState { look: Vec2::new(turn, 0.0), ..InputState::default() };
         let mut totals = Vec::with_capacity(args.frames);
-        let mut stages: Vec<(&'static str, Vec<f64>)> = Vec::new();
+        let mut stages = StageTimes::default();
         let mut rates = Vec::with_capacity(args.frames);
         let mut pixels_drawn = Vec::with_capacity(args.frames);
         let mut unit = "";
@@ -72,15 +72,11 @@ pub fn run(args: &BenchViewArgs) -> Result<()> {
             unit = rate_unit;
             let stages_ms = stats.stages.iter().map(|(n, d)| (*n, ms(*d)));
             for (name, ms) in stages_ms.chain([("display", display)]) {
-                match stages.iter_mut().find(|(n, _)| *n == name) {
-                    Some((_, v)) => v.push(ms),
-                    None => stages.push((name, vec![ms])),
-                }
+                stages.push(name, ms);
             }
         }
         let mut sorted = totals.clone();
         let med = median(&mut sorted);
-        let split: Vec<String> = stages.iter_mut().map(|(n, v)| format!("{n} {:.2}", median(v))).collect();
         let scale = (args.width as f64 * args.height as f64 / median(&mut pixels_drawn)).sqrt();
         out!(
             "{} {}x{}{}, {} frames on {} threads: median {med:.2} ms ({:.1} fps), min {:.2}, max {:.2}; stages (medians, ms): {}; {:.1} {unit}",
@@ -93,7 +89,7 @@ pub fn run(args: &BenchViewArgs) -> Result<()> {
             1e3 / med,
             sorted[0],
             sorted[sorted.len() - 1],
-            split.join(", "),
+            stages.medians(),
             median(&mut rates),
         );
         Ok(())

@@ -473,8 +473,16 @@ pub fn render_path_sums(
     // reported apart (`FrameStats::setup`), so that the first frame of a process (`glint
     // render`) times what a benchmark's or the viewer's later frames time.
     let setup = Instant::now();
-    let fresh = !sums::POOL.fits(region.pixels()) || !GUIDES.fits(image.pixels());
+    let kept_planes =
+        || FILTER_BUFFERS.lock().is_ok_and(|b| b.as_ref().is_some_and(|b| b.depth.len() == image.pixels()));
+    let fresh = !sums::POOL.fits(region.pixels()) || !GUIDES.fits(image.pixels()) || (filtered && !kept_planes());
     if fresh {
+        if filtered {
+            let mut buffers = FILTER_BUFFERS.lock().ok().and_then(|mut kept| kept.take()).unwrap_or_default();
+            buffers.size(image.pixels());
+            keep_filter_buffers(buffers);
+            glint_filter::reserve(&path.filter, image.width as usize, image.height as usize);
+        }
         let what = || format!("the path accumulator of a {} x {} image", region.width, region.height);
         sums::POOL.give(sums::POOL.take(region.pixels(), PixelSums::default(), what)?);
         let what = || format!("the guide rays of a {} x {} image", image.width, image.height);
@@ -510,12 +518,14 @@ pub fn render_path_sums(
         trace += trace_start.elapsed();
         if filtered {
             let filter_start = Instant::now();
-            let filtered = filter_guides(world, &frame, &guides, &path.filter)?;
+            let buffers = filter_guides(world, &frame, &guides, &path.filter)?;
             filter += filter_start.elapsed();
             let trace_start = Instant::now();
             let lookup_hooks = if first_step && lookups_report { hooks } else { &quiet };
-            let lookups = Lookups { guides: &guides, filtered_indirect: &filtered, region };
-            trace_lookups(world, &frame, path, base, &lookups, &mut acc, lookup_hooks, &mut stats)?;
+            let lookups = Lookups { guides: &guides, filtered: &buffers, region };
+            let traced = trace_lookups(world, &frame, path, base, &lookups, &mut acc, lookup_hooks, &mut stats);
+            keep_filter_buffers(buffers);
+            traced?;
             trace += trace_start.elapsed();
         }
         if unit == 0 {
@@ -647,14 +657,14 @@ fn trace_guides(
 }
 
 /// A pass's second step: the guide rays' indirect light filtered, guided by their normals and
-/// depths.
+/// depths, into the kept [`FILTER_BUFFERS`] (the caller gives them back).
 fn filter_guides(
     world: &World,
     frame: &Frame,
     guides: &[GuidePixel],
     filter: &Filter,
-) -> Result<Vec<Rgb>, RenderError> {
-    let mut buffers = FilterBuffers::default();
+) -> Result<FilterBuffers, RenderError> {
+    let mut buffers = FILTER_BUFFERS.lock().ok().and_then(|mut kept| kept.take()).unwrap_or_default();
     let height = guides.len() / frame.width.max(1);
     filter_indirect(
         |i| guides[i].sample.indirect,
@@ -665,15 +675,29 @@ fn filter_guides(
         filter,
         &mut buffers,
     )?;
-    // Collected on every thread (each faults in its own pages), as every per-frame buffer here.
-    Ok((0..guides.len()).into_par_iter().map(|i| buffers.filtered(i)).collect())
+    Ok(buffers)
 }
+
+/// The last pass's filter planes (a 1024 × 768 frame's ten are 31 MB: made and page-faulted
+/// anew, they cost a Sponza frame's filter step more than the filter).
+static FILTER_BUFFERS: std::sync::Mutex<Option<FilterBuffers>> = std::sync::Mutex::new(None);
+
+/// Keep `buffers` for the next pass's [`filter_guides`].
+fn keep_filter_buffers(buffers: FilterBuffers) {
+    if let Ok(mut kept) = FILTER_BUFFERS.lock() {
+        *kept = Some(buffers);
+    }
+}
+
+/// The guide map's planes of the last pass with lookups, kept for the next.
+static MAP_NORMALS: crate::first_touch::Pool<Vec3> = crate::first_touch::Pool::new();
+static MAP_DEPTHS: crate::first_touch::Pool<f32> = crate::first_touch::Pool::new();
 
 /// What a pass's lookups read: the whole image's guide samples and their filtered indirect
 /// light, and the pixels to finish (`region`, whose sums `acc` holds).
 struct Lookups<'a> {
     guides: &'a [GuidePixel],
-    filtered_indirect: &'a [Rgb],
+    filtered: &'a FilterBuffers,
     region: Region,
 }
 
@@ -690,11 +714,20 @@ fn trace_lookups(
     hooks: &Hooks,
     stats: &mut FrameStats,
 ) -> Result<(), RenderError> {
-    let Lookups { guides, filtered_indirect, region } = *lookups;
+    let Lookups { guides, filtered, region } = *lookups;
     let w = frame.width;
     let h = guides.len() / w.max(1);
-    let normals: Vec<Vec3> = guides.par_iter().map(|g| g.sample.guide.map_or(Vec3::ZERO, |q| q.normal)).collect();
-    let depths: Vec<f32> = guides.par_iter().map(|g| g.sample.guide.map_or(f32::INFINITY, |q| q.depth)).collect();
+    let further = path.spp as u64 - 1;
+    // The guide map's planes, for the further samples' lookups (none at 1 spp).
+    let n = if further > 0 { guides.len() } else { 0 };
+    let what = || format!("the guide map of a {w} x {h} image");
+    let mut normals = MAP_NORMALS.take(n, Vec3::ZERO, what)?;
+    let mut depths = MAP_DEPTHS.take(n, f32::INFINITY, what)?;
+    normals.par_iter_mut().zip(&mut depths).zip(guides).with_min_len(4096).for_each(|((n, d), g)| {
+        if let Some(q) = g.sample.guide {
+            (*n, *d) = (q.normal, q.depth);
+        }
+    });
     let map = GuideMap { width: w, height: h, normal: &normals, depth: &depths };
     let (rx, rw) = (region.x0 as usize, region.width as usize);
     let parts: Vec<_> = acc.chunks_mut(rw * BAND_ROWS).collect();
@@ -709,12 +742,12 @@ fn trace_lookups(
         for (k, a) in accs.iter_mut().enumerate() {
             let i = (y0 + k / rw) * w + rx + k % rw;
             let g = &guides[i].sample;
-            pass.push((g.rest + g.albedo * filtered_indirect[i], g.direct));
-            fixed::add_rgb(&mut a.indirect, filtered_indirect[i]);
+            let indirect = filtered.filtered(i);
+            pass.push((g.rest + g.albedo * indirect, g.direct));
+            fixed::add_rgb(&mut a.indirect, indirect);
             a.covered += g.covered as u32;
             a.samples += 1;
         }
-        let further = path.spp as u64 - 1;
         let request = |k: usize, s: u64| Request {
             x: rx + k % rw,
             y: y0 + k / rw,
@@ -727,7 +760,7 @@ fn trace_lookups(
             a.samples += 1;
             let Some(cs) = cs.admitted(&mut rejected, &mut clamped) else { return };
             let indirect = match cs.guide {
-                Some(q) => map.choose(pos, q.normal, q.depth).map_or(Rgb::ZERO, |j| filtered_indirect[j]),
+                Some(q) => map.choose(pos, q.normal, q.depth).map_or(Rgb::ZERO, |j| filtered.filtered(j)),
                 None => Rgb::ZERO,
             };
             let p = &mut pass[k];
@@ -742,6 +775,8 @@ fn trace_lookups(
         hooks.report((accs.len() / rw) as u64);
         BandStats { rays: tracer.counts(), rejected, clamped }
     })?;
+    MAP_NORMALS.give(normals);
+    MAP_DEPTHS.give(depths);
     stats.rays.add(&totals.rays);
     stats.rejected_samples += totals.rejected;
     stats.clamped_samples += totals.clamped;
@@ -759,6 +794,14 @@ pub(crate) struct FilterBuffers {
 }
 
 impl FilterBuffers {
+    /// Every plane at `n` pixels (grown on every thread; what they held is kept).
+    fn size(&mut self, n: usize) {
+        let FilterBuffers { indirect, normal, depth, out } = self;
+        for v in indirect.iter_mut().chain(normal.iter_mut()).chain([depth]).chain(out.iter_mut()) {
+            crate::first_touch::resize(v, n, 0.0);
+        }
+    }
+
     /// The filtered indirect light of pixel `i` (after [`filter_indirect`]).
     #[inline]
     pub(crate) fn filtered(&self, i: usize) -> Rgb {
@@ -787,10 +830,8 @@ fn filter_indirect(
         .filter_map(|i| guide(i).map(|q| q.depth * depth_scale))
         .reduce(|| 0.0f32, f32::max)
         + 1.0;
+    buffers.size(n);
     let FilterBuffers { indirect: planes, normal, depth, out } = buffers;
-    for v in planes.iter_mut().chain(normal.iter_mut()).chain([&mut *depth]).chain(out.iter_mut()) {
-        crate::first_touch::resize(v, n, 0.0);
-    }
     let rows = width * 8;
     let [p0, p1, p2] = &mut *planes;
     let [n0, n1, n2] = &mut *normal;
