@@ -41,13 +41,32 @@ impl<T: Clone + Send + Sync> Pool<T> {
     /// # Errors
     /// [`MemoryError`] when a new buffer is needed and the budget or the allocator refuses it.
     pub(crate) fn take(&self, len: usize, value: T, what: impl Fn() -> String) -> Result<Vec<T>, MemoryError> {
-        let kept = self.0.lock().ok().and_then(|mut p| p.take()).filter(|v| v.capacity() >= len);
-        let mut v = match kept {
-            Some(v) => v,
-            None => glint_core::memory::try_with_capacity(what, len)?,
-        };
+        let mut v = self.kept_or_new(len, what)?;
         refill(&mut v, len, value);
         Ok(v)
+    }
+
+    /// [`Pool::take`] without clearing the kept elements: `len` elements, those kept from the
+    /// last frame holding what it left (the new ones `value`). For a caller that writes every
+    /// element before it reads one, while it is in cache, instead of a separate pass over the
+    /// whole buffer.
+    ///
+    /// # Errors
+    /// As [`Pool::take`].
+    pub(crate) fn take_stale(&self, len: usize, value: T, what: impl Fn() -> String) -> Result<Vec<T>, MemoryError> {
+        let mut v = self.kept_or_new(len, what)?;
+        resize(&mut v, len, value);
+        Ok(v)
+    }
+
+    /// The kept buffer if it holds `len` elements without growing, else a new empty one of
+    /// that capacity (checked against the memory budget).
+    fn kept_or_new(&self, len: usize, what: impl Fn() -> String) -> Result<Vec<T>, MemoryError> {
+        let kept = self.0.lock().ok().and_then(|mut p| p.take()).filter(|v| v.capacity() >= len);
+        match kept {
+            Some(v) => Ok(v),
+            None => glint_core::memory::try_with_capacity(what, len),
+        }
     }
 
     /// Whether a [`Pool::take`] of `len` elements would reuse the kept buffer.
@@ -99,5 +118,17 @@ mod tests {
         POOL.give(again);
         assert!(POOL.fits(1000) && !POOL.fits(1001));
         assert_eq!(POOL.take(2000, 1, String::new).expect("small").len(), 2000, "a larger size gets new memory");
+    }
+
+    #[test]
+    fn a_stale_take_keeps_the_old_elements_and_fills_the_new_ones() {
+        static POOL: super::Pool<u32> = super::Pool::new();
+        POOL.give(vec![4, 5, 6]);
+        assert_eq!(POOL.take_stale(2, 0, String::new).expect("small"), [4, 5]);
+        let mut v = POOL.take_stale(3, 9, String::new).expect("small");
+        assert_eq!(v, [9, 9, 9], "nothing kept: new elements");
+        v.extend([1, 2]);
+        POOL.give(v);
+        assert_eq!(POOL.take_stale(6, 7, String::new).expect("small"), [9, 9, 9, 1, 2, 7]);
     }
 }

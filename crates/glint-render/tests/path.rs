@@ -212,6 +212,23 @@ fn same_image_on_one_and_two_threads() {
     }
 }
 
+/// A frame's sums start from what the last frame of that size left (each band resets its own
+/// as the first step starts): a frame rendered after others, filtered or not, with more
+/// passes or fewer, is the same frame rendered first.
+#[test]
+fn a_frame_owes_nothing_to_the_frames_before_it() {
+    let text = include_str!("../../../scenes/whitted-bench.toml");
+    let scene = glint_formats::load_scene_str(text, std::path::Path::new("."), "bench.toml").expect("scene").scene;
+    let world = World::new(scene);
+    let guided = Filter::Guided(GuidedParams::for_width(48));
+    let frames = [path(2, 2, Filter::None), PathSettings { passes: 3, ..path(2, 1, guided) }, path(1, 1, guided)];
+    let first: Vec<Film> = frames.iter().map(|p| path_frame(&world, &settings(48, 30), p).expect("render").0).collect();
+    for (p, want) in frames.iter().zip(&first).rev() {
+        let again = path_frame(&world, &settings(48, 30), p).expect("render").0;
+        assert!(again.pixels == want.pixels, "{p:?}: differs after other frames");
+    }
+}
+
 /// A scene without any light at all renders black, not NaN.
 #[test]
 fn a_dark_scene_is_black() {
