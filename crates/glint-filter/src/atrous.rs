@@ -120,7 +120,8 @@ const KEPT_PIXELS: usize = 1 << 22;
 /// The planes of a `w`×`h` filter with `p`'s iterations, made (their pages written on every
 /// thread) and kept for the next call: see [`crate::reserve`].
 pub(crate) fn reserve(isa: Isa, w: usize, h: usize, p: &AtrousParams) {
-    if w == 0 || h == 0 || p.iterations == 0 || p.iterations > MAX_ITERATIONS {
+    // Planes of a larger image are not kept ([`keep_planes`]): nothing to make ahead.
+    if w == 0 || h == 0 || w * h > KEPT_PIXELS || p.iterations == 0 || p.iterations > MAX_ITERATIONS {
         return;
     }
     let reach = (2usize << (p.iterations - 1)).min(w + LANES);
