@@ -735,12 +735,11 @@ fn trace_lookups(
     // The guide map's planes, for the further samples' lookups (none at 1 spp).
     let n = if further > 0 { guides.len() } else { 0 };
     let what = || format!("the guide map of a {w} x {h} image");
-    let mut normals = MAP_NORMALS.take(n, Vec3::ZERO, what)?;
-    let mut depths = MAP_DEPTHS.take(n, f32::INFINITY, what)?;
+    // Every element is written below: taken as the last pass left them, not cleared first.
+    let mut normals = MAP_NORMALS.take_stale(n, Vec3::ZERO, what)?;
+    let mut depths = MAP_DEPTHS.take_stale(n, f32::INFINITY, what)?;
     normals.par_iter_mut().zip(&mut depths).zip(guides).with_min_len(4096).for_each(|((n, d), g)| {
-        if let Some(q) = g.sample.guide {
-            (*n, *d) = (q.normal, q.depth);
-        }
+        (*n, *d) = g.sample.guide.map_or((Vec3::ZERO, f32::INFINITY), |q| (q.normal, q.depth));
     });
     let map = GuideMap { width: w, height: h, normal: &normals, depth: &depths };
     let (rx, rw) = (region.x0 as usize, region.width as usize);
