@@ -251,6 +251,10 @@ struct Back<'a, const N: usize> {
     colour: &'a [[f32; N]],
 }
 
+/// How many vectors ahead [`band`] prefetches the row two steps down: 8 (2 KB a plane with
+/// 16 lanes) measured best, 4 as good within noise, 16 slower (BENCHMARKS.md §13.5).
+const AHEAD: usize = 8;
+
 /// Runs one band of one iteration (see the module documentation). Each row takes two passes
 /// over its vectors: the forward pass keeps a vector's centre features and four sums in
 /// registers while it runs through the 12 forward taps (storing each weight in the ring), the
@@ -310,7 +314,20 @@ pub(crate) fn band<K: Kernels, const N: usize>(k: K, job: BandJob<'_>) {
                 weights[o * s8..(o + 1) * s8].fill([0.0; N]);
             }
         }
+        // The row two steps down is the one whose lines this row reads first (the rows
+        // above read it later, as their nearer tap row and as the centre). The hardware's
+        // stride prefetcher does not follow it: the same load instructions walk all 12 taps'
+        // rows in turn. So its seven planes are fetched ahead, [`AHEAD`] vectors on.
+        let ahead = if live[9] { Some(taps[9]) } else { None };
         for i in 0..n8 {
+            if let Some(t) = ahead {
+                for p in 0..4 {
+                    k.prefetch(t.geo.as_ptr().wrapping_add(p * s8 + i + AHEAD));
+                }
+                for p in 0..3 {
+                    k.prefetch(t.colour.as_ptr().wrapping_add(p * s8 + i + AHEAD));
+                }
+            }
             let c3 = Wide(cg[3 * s8 + i]);
             let c6 = Wide(cc[2 * s8 + i]);
             let c = [Wide(cg[i]), Wide(cg[s8 + i]), Wide(cg[2 * s8 + i]), c3, Wide(cc[i]), Wide(cc[s8 + i]), c6];
