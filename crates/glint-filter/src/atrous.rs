@@ -16,9 +16,8 @@
 //! The colour sigma halves each iteration, which in scaled units is a factor 2 on the colour
 //! written for the next one (exact in binary floating point). Taps outside the image count
 //! for nothing: rows outside are skipped; columns outside hold depth +inf, so a pair with one
-//! end there gets the exponential's floor 2^−126, which disappears in f32 sums whose centre
-//! weight alone is 0.14 (and its colour there is 0): the same bits as a weight of zero, with no
-//! mask in the loop. Rows are split into bands
+//! end there gets weight zero, with no mask in the loop (the exponential is 0 from 2^−40
+//! down: see [`Wide::exp2_neg_or_zero`]). Rows are split into bands
 //! for the threads; a band recomputes the forward taps of the 2·2^i rows above it, and since
 //! every pixel adds its contributions in an order that does not depend on the band, any split
 //! gives the same bits.
@@ -184,6 +183,7 @@ pub(crate) fn atrous_into_named(
     let offset = FORWARD.map(|(tx, ty)| -(hk[(tx + 2) as usize] * hk[ty + 2]).log2());
     let centre = -(hk[2] * hk[2]).log2();
 
+    let mut image = Some(out);
     for it in 0..p.iterations {
         let last = it + 1 == p.iterations;
         // Colour out, in the next iteration's units (σc halves: ×2), or plain after the last.
@@ -191,24 +191,36 @@ pub(crate) fn atrous_into_named(
         let step = 1usize << it;
         // Bands tall enough that the 2·step rows recomputed above each cost at most ~1/4.
         let band = (32 * step).clamp(64, h.div_ceil(4).max(64));
-        let rows = band * 3 * cur.stride;
-        next.planes_mut().par_chunks_mut(rows).enumerate().for_each(|(i, out)| {
+        let run = |i: usize, out: BandOut<'_>| {
             let job = BandJob { geo: &geo, cur: &cur, step, factor, offset, centre, y0: i * band, out };
             simd::atrous_band(isa, job);
-        });
-        std::mem::swap(&mut cur, &mut next);
-        kc *= 2.0;
-    }
-    for (k, dst) in out.into_iter().enumerate() {
-        dst.par_chunks_exact_mut(w).enumerate().with_min_len(16).for_each(|(y, d)| {
-            d.copy_from_slice(&cur.row(k, y)[cur.margin..cur.margin + w]);
-        });
+        };
+        // The last iteration writes the caller's planes: no copy out of the padded ones.
+        if let Some([a, b, c]) = image.take_if(|_| last) {
+            let rows = band * w;
+            let planes = a.par_chunks_mut(rows).zip(b.par_chunks_mut(rows)).zip(c.par_chunks_mut(rows));
+            planes.enumerate().for_each(|(i, ((a, b), c))| run(i, BandOut::Image([a, b, c])));
+        } else {
+            let rows = band * 3 * cur.stride;
+            next.planes_mut().par_chunks_mut(rows).enumerate().for_each(|(i, out)| run(i, BandOut::Padded(out)));
+            std::mem::swap(&mut cur, &mut next);
+            kc *= 2.0;
+        }
     }
     keep_planes([geo, cur, next]);
     Ok(())
 }
 
-/// Output rows `y0..` of one iteration (as many as `out` holds, each three padded planes).
+/// Where a band's output rows go.
+pub(crate) enum BandOut<'a> {
+    /// The next iteration's padded planes: rows `y0..` of the three, row-interleaved.
+    Padded(&'a mut [f32]),
+    /// The caller's three planes, rows `y0..` (`w` floats each, no margins): the last
+    /// iteration's.
+    Image([&'a mut [f32]; 3]),
+}
+
+/// Output rows `y0..` of one iteration (as many as `out` holds).
 pub(crate) struct BandJob<'a> {
     /// Scaled normal x, y, z and depth.
     geo: &'a Padded,
@@ -222,7 +234,7 @@ pub(crate) struct BandJob<'a> {
     /// −log₂ h of the centre tap.
     centre: f32,
     y0: usize,
-    out: &'a mut [f32],
+    out: BandOut<'a>,
 }
 
 /// A band's weight ring, reused between calls (fresh pages cost more than the arithmetic).
@@ -263,9 +275,13 @@ const AHEAD: usize = 8;
 /// on the band.
 #[inline(always)]
 pub(crate) fn band<K: Kernels, const N: usize>(k: K, job: BandJob<'_>) {
-    let BandJob { geo, cur, step, factor, offset, centre, y0, out } = job;
+    let BandJob { geo, cur, step, factor, offset, centre, y0, mut out } = job;
     let (w, h, wp, m, stride) = (geo.w, geo.h, geo.wp, geo.margin, geo.stride);
-    let y1 = y0 + out.len() / (3 * stride);
+    let y1 = y0
+        + match &out {
+            BandOut::Padded(o) => o.len() / (3 * stride),
+            BandOut::Image(o) => o[0].len() / w,
+        };
     assert!(wp % N == 0 && m % N == 0 && stride % N == 0, "planes laid out for {N} lanes");
     let (n8, s8, m8) = (wp / N, stride / N, m / N);
     // Forward weights of rows y − 2·step ..= y: slot per row, 12 padded rows per slot.
@@ -284,7 +300,7 @@ pub(crate) fn band<K: Kernels, const N: usize>(k: K, job: BandJob<'_>) {
     }
     // Per row and vector: Σw·c (3) and Σw, side by side, between the two passes.
     let mut sums = vec![[[0.0f32; N]; 4]; n8];
-    let wc = k.exp2_neg(Wide::<N>::splat(centre));
+    let wc = k.exp2_neg_or_zero(Wide::<N>::splat(centre));
     let at = |p: usize, dx: isize| (p * stride + m).wrapping_add_signed(dx);
     for y in first..y1 {
         let slot = (y - first) % slots * 12 * s8;
@@ -351,10 +367,9 @@ pub(crate) fn band<K: Kernels, const N: usize>(k: K, job: BandJob<'_>) {
                 let s01 = k.mul_add(d[1], d[1], k.mul_add(d[0], d[0], Wide::splat(t.offset)));
                 let s23 = k.mul_add(d[3], d[3], d[2] * d[2]);
                 let s45 = k.mul_add(d[5], d[5], d[4] * d[4]);
-                // A partner outside the image has depth +inf: s is +inf or NaN, and 2^−s its
-                // floor, 2^−126 (see `exp2_neg`), whose share of Σw and Σw·c is below f32's
-                // rounding (the centre weight alone is 0.14, and colour is 0 there).
-                let wt = k.exp2_neg((s01 + s23) + (s45 + d[6] * d[6]));
+                // A partner outside the image has depth +inf: s is +inf or NaN, and 2^−s is 0
+                // (see `exp2_neg_or_zero`).
+                let wt = k.exp2_neg_or_zero((s01 + s23) + (s45 + d[6] * d[6]));
                 weights[t.weights + i] = wt.0;
                 for c in 0..3 {
                     s[c] = k.mul_add(wt, tap[c], s[c]);
@@ -367,7 +382,7 @@ pub(crate) fn band<K: Kernels, const N: usize>(k: K, job: BandJob<'_>) {
             continue;
         }
         // Backward taps: the weight the neighbour q − o stored, times that neighbour's colour.
-        // Outside the image the stored weights are zero (margins, dead rows) or 2^−126.
+        // Outside the image the stored weights are zero (margins, dead rows, taps outside).
         let mut live = [false; 12];
         let back: [Back<'_, N>; 12] = array(|o| {
             let (tx, ty) = FORWARD[o];
@@ -383,7 +398,15 @@ pub(crate) fn band<K: Kernels, const N: usize>(k: K, job: BandJob<'_>) {
                 colour: view(cur.block(py), at(0, -dx), span(3)),
             }
         });
-        let row = &mut out[(y - y0) * 3 * stride..(y - y0 + 1) * 3 * stride];
+        // The row's three planes, and the column of pixel 0 in them.
+        let (mut row, x0): ([&mut [f32]; 3], usize) = match &mut out {
+            BandOut::Padded(o) => {
+                let (a, rest) = o[(y - y0) * 3 * stride..(y - y0 + 1) * 3 * stride].split_at_mut(stride);
+                let (b, c) = rest.split_at_mut(stride);
+                ([a, b, c], m)
+            }
+            BandOut::Image(o) => (o.each_mut().map(|p| &mut p[(y - y0) * w..(y - y0 + 1) * w]), 0),
+        };
         for (i, sum) in sums.iter().enumerate() {
             let mut s = sum.map(Wide);
             for (b, &live) in back.iter().zip(&live) {
@@ -400,15 +423,15 @@ pub(crate) fn band<K: Kernels, const N: usize>(k: K, job: BandJob<'_>) {
             }
             // The centre tap always counts (weight ≈ 0.14), so Σw > 0 for image pixels.
             let scale = Wide::splat(factor) / s[3];
-            for c in 0..3 {
+            for (c, dst) in row.iter_mut().enumerate() {
                 let v = (s[c] * scale).0;
-                let x = c * stride + m + i * N;
+                let x = x0 + i * N;
                 let n = w - i * N;
                 if n >= N {
                     // A whole vector: one store, not a copy of variable length.
-                    row[x..x + N].copy_from_slice(&v);
+                    dst[x..x + N].copy_from_slice(&v);
                 } else {
-                    row[x..x + n].copy_from_slice(&v[..n]);
+                    dst[x..x + n].copy_from_slice(&v[..n]);
                 }
             }
         }
@@ -482,6 +505,23 @@ mod tests {
         for c in 0..3 {
             assert_eq!(bits(&first[c]), bits(&again[c]), "plane {c}");
             assert_ne!(bits(&first[c]), bits(&other[c]), "plane {c}: two images, one result");
+        }
+    }
+
+    #[test]
+    fn a_black_region_stays_black_not_nearly() {
+        // Black beside a bright stripe 8 pixels wide on one surface: the colour's standard
+        // deviation is 0.28, so the colour term cuts the weights across the edge to about
+        // 2^−60 in the first iteration. Weights that small must be zero, not carried in:
+        // black pixels at 1e-17, then (squared, weighted again) far smaller, make later
+        // iterations' products underflow, which costs a microcode assist each.
+        let scene = two_halves(96, 8, 88, [0.0, 1.0], [0.5, 0.5], [PLUS_Z, PLUS_Z]);
+        for isa in [Isa::Portable, Isa::Avx2, Isa::Avx512] {
+            let filter = crate::Filter::Atrous(AtrousParams::default());
+            let out = crate::apply_with(isa, &filter, scene.input(), &scene.guide()).expect("valid");
+            for (i, &v) in out[0].iter().enumerate() {
+                assert!(v == 0.0 || v.abs() > 1e-15, "{isa:?}, pixel {i}: {v:e}");
+            }
         }
     }
 

@@ -83,19 +83,40 @@ impl<const N: usize> Wide<N> {
         Wide(r)
     }
 
-    /// `2^−s` for `s >= 0` (above 126, and NaN, give 2^−126), relative error below 4e-6 (2.6e-6 from the
-    /// polynomial, the rest f32 rounding): the
-    /// integer part goes into the exponent bits, a degree-4 minimax polynomial covers the
-    /// fraction in [−1/2, 1/2]. Vectorises on any x86-64 (no libm call, no `floor`).
-    /// `mul_add(a, b, c)` evaluates the polynomial (see [`crate::simd::Kernels::mul_add`]).
+    /// `2^−s` for `s >= 0` (above 126, and NaN, give 2^−126), relative error below 4e-6 (2.6e-6
+    /// from the polynomial, the rest f32 rounding): the integer part goes into the exponent
+    /// bits, a degree-4 minimax polynomial covers the fraction in [−1/2, 1/2]. Vectorises on
+    /// any x86-64 (no libm call, no `floor`). `mul_add(a, b, c)` evaluates the polynomial (see
+    /// [`crate::simd::Kernels::mul_add`]).
     #[inline(always)]
     pub(crate) fn exp2_neg(self, mul_add: impl Fn(Self, Self, Self) -> Self) -> Self {
+        self.exp2_neg_below::<false>(126.0, mul_add)
+    }
+
+    /// [`Wide::exp2_neg`], but exactly 0 from s = 40 on (and for NaN); every nonzero result
+    /// is a normal number. One compare and select more, for filters that iterate.
+    ///
+    /// Why zero below 2^−40: a weighted filter divides by a weight sum of at least its centre
+    /// tap's (0.14 for A-Trous), so such a weight moves a pixel by at most 2^−37 of its
+    /// partner's colour, far below f32's rounding of any visible value. Carried into the sums,
+    /// though, weights of 2^−60…2^−126 turn black pixels next to bright ones into values near
+    /// 1e-20…1e-37; the next iteration squares their differences, and every product that
+    /// underflows costs a microcode assist: on this Zen 5, A-Trous's second iteration took
+    /// 6.5 ms on one thread instead of 4.9 (BENCHMARKS.md §13.5).
+    #[inline(always)]
+    pub(crate) fn exp2_neg_or_zero(self, mul_add: impl Fn(Self, Self, Self) -> Self) -> Self {
+        self.exp2_neg_below::<true>(40.0, mul_add)
+    }
+
+    /// 2^−min(s, `limit`), or 0 where s ≥ `limit` if `ZERO` (NaN counts as beyond `limit`).
+    #[inline(always)]
+    fn exp2_neg_below<const ZERO: bool>(self, limit: f32, mul_add: impl Fn(Self, Self, Self) -> Self) -> Self {
         const ROUND: f32 = 12_582_912.0; // 1.5 · 2^23: ROUND − s rounds −s to an integer
         let mut s = self;
         for v in &mut s.0 {
             // NaN fails the comparison and is clamped too.
-            if (*v).partial_cmp(&126.0) != Some(std::cmp::Ordering::Less) {
-                *v = 126.0;
+            if (*v).partial_cmp(&limit) != Some(std::cmp::Ordering::Less) {
+                *v = limit;
             }
         }
         let t = Self::splat(ROUND) - s;
@@ -107,7 +128,8 @@ impl<const N: usize> Wide<N> {
         // t's low mantissa bits hold round(−s) in two's complement; shifted by 23 they add it
         // to p's exponent (the constant's own bits shift out of the word).
         for i in 0..N {
-            p.0[i] = f32::from_bits(p.0[i].to_bits().wrapping_add(t.0[i].to_bits() << 23));
+            let v = f32::from_bits(p.0[i].to_bits().wrapping_add(t.0[i].to_bits() << 23));
+            p.0[i] = if ZERO && s.0[i] >= limit { 0.0 } else { v };
         }
         p
     }
@@ -206,17 +228,29 @@ mod tests {
 
     #[test]
     fn exp2_matches_libm_where_it_matters() {
+        let e = |s: f32| F8::splat(s).exp2_neg(|a, b, c| a * b + c).0[0];
+        let z = |s: f32| F8::splat(s).exp2_neg_or_zero(|a, b, c| a * b + c).0[0];
         let mut worst = 0.0f64;
         for i in 0..=200_000 {
             let s = (i as f32) * 0.000_63; // 0 ..= 126
-            let got = F8::splat(s).exp2_neg(|a, b, c| a * b + c).0[0] as f64;
             let want = (-s as f64).exp2();
-            worst = worst.max(((got - want) / want).abs());
+            worst = worst.max(((f64::from(e(s)) - want) / want).abs());
+            // The same bits as far as the cut.
+            if s < 40.0 {
+                assert_eq!(z(s).to_bits(), e(s).to_bits(), "2^-{s}");
+            }
         }
         assert!(worst < 4e-6, "relative error {worst}");
-        let e = |s: f32| F8::splat(s).exp2_neg(|a, b, c| a * b + c).0[0];
         assert_eq!(e(0.0), 0.999_999_3);
         assert!(e(1e30) > 0.0 && e(1e30) < 1.2e-38);
         assert!(e(f32::NAN) < 1.2e-38);
+        // Past the cut, and undefined, exponents give zero with the cut; never a subnormal.
+        for s in [40.0, 40.5, 125.0, 126.0, 1e30, f32::INFINITY, f32::NAN] {
+            assert_eq!(z(s).to_bits(), 0, "2^-{s}");
+        }
+        for i in 0..1000 {
+            let s = 35.0 + i as f32 * 0.005;
+            assert!(z(s).is_normal(), "2^-{s} gave {}", z(s));
+        }
     }
 }

@@ -107,6 +107,7 @@ impl Padded {
 
     /// The padded row `y` of plane `k`.
     #[inline(always)]
+    #[cfg(test)]
     pub(crate) fn row(&self, k: usize, y: usize) -> &[f32] {
         let start = self.start + (y * self.count + k) * self.stride;
         &self.data[start..start + self.stride]

@@ -28,6 +28,12 @@ pub(crate) trait Kernels: Copy + Send + Sync {
         s.exp2_neg(|a, b, c| self.mul_add(a, b, c))
     }
 
+    /// `2^−s`, 0 from s = 40 on: see [`Wide::exp2_neg_or_zero`].
+    #[inline(always)]
+    fn exp2_neg_or_zero<const N: usize>(self, s: Wide<N>) -> Wide<N> {
+        s.exp2_neg_or_zero(|a, b, c| self.mul_add(a, b, c))
+    }
+
     /// A hint to bring the cache line holding `p` into L1; `p` may point anywhere.
     #[inline(always)]
     fn prefetch<T>(self, _p: *const T) {}
