@@ -478,7 +478,7 @@ pub fn render_path_sums(
     let fresh = !sums::POOL.fits(region.pixels()) || !GUIDES.fits(image.pixels()) || (filtered && !kept_planes());
     if fresh {
         if filtered {
-            let mut buffers = FILTER_BUFFERS.lock().ok().and_then(|mut kept| kept.take()).unwrap_or_default();
+            let mut buffers = take_filter_buffers();
             buffers.size(image.pixels());
             keep_filter_buffers(buffers);
             glint_filter::reserve(&path.filter, image.width as usize, image.height as usize);
@@ -517,11 +517,14 @@ pub fn render_path_sums(
         let lookups_report = filtered && (spp > 1 || tiled);
         let guide_hooks = if first_step && !lookups_report { hooks } else { &quiet };
         let sums = Sums { acc: &mut acc, stale: first_step };
-        let guides = trace_guides(world, &frame, path, base, count, sums, guide_hooks, &mut stats)?;
+        // A filtered pass's guide rays write the filter's input planes as they go.
+        let mut inputs = filtered.then(take_filter_buffers);
+        let (guides, far) =
+            trace_guides(world, &frame, path, base, count, sums, inputs.as_mut(), guide_hooks, &mut stats)?;
         trace += trace_start.elapsed();
-        if filtered {
+        if let Some(mut buffers) = inputs {
             let filter_start = Instant::now();
-            let buffers = filter_guides(world, &frame, &guides, &path.filter)?;
+            filter_inputs(frame.width, guides.len() / frame.width.max(1), far, &path.filter, &mut buffers)?;
             filter += filter_start.elapsed();
             let trace_start = Instant::now();
             let lookup_hooks = if first_step && lookups_report { hooks } else { &quiet };
@@ -603,7 +606,10 @@ struct Sums<'a> {
 
 /// A pass's first step: every pixel's guide ray (through its centre when a filter runs) and,
 /// without a filter, `count` samples from `base` on, added to the sums (the returned guides are
-/// sample `base`'s; with a filter the sums are not touched).
+/// sample `base`'s; with a filter the sums are not touched). With `inputs` (a filtered pass),
+/// each band then writes its pixels into the filter's input planes while its guide samples
+/// are in cache (no pass over the whole image's 72-byte samples after the trace); the second
+/// value returned is the largest guide depth written, for [`filter_inputs`].
 #[allow(clippy::too_many_arguments)]
 fn trace_guides(
     world: &World,
@@ -612,20 +618,35 @@ fn trace_guides(
     base: u64,
     count: u64,
     sums: Sums,
+    inputs: Option<&mut FilterBuffers>,
     hooks: &Hooks,
     stats: &mut FrameStats,
-) -> Result<Vec<GuidePixel>, RenderError> {
+) -> Result<(Vec<GuidePixel>, f32), RenderError> {
     let w = frame.width;
     let band_len = w * BAND_ROWS;
-    let filtered = path.filtered();
+    let n = frame.image.pixels();
     let what = || format!("the guide rays of a {} x {} image", frame.width, frame.image.height);
-    let mut guides = GUIDES.take(frame.image.pixels(), GuidePixel::default(), what)?;
-    let parts: Vec<(&mut [GuidePixel], &mut [PixelSums])> = if filtered {
-        guides.chunks_mut(band_len).map(|g| (g, &mut [][..])).collect()
-    } else {
-        guides.chunks_mut(band_len).zip(sums.acc.chunks_mut(band_len)).collect()
+    let mut guides = GUIDES.take(n, GuidePixel::default(), what)?;
+    let mut fars = vec![0.0f32; n.div_ceil(band_len.max(1))];
+    let depth_scale = depth_scale(world);
+    type Part<'a> = (&'a mut [GuidePixel], &'a mut [PixelSums], Option<InputBand<'a>>, &'a mut f32);
+    let parts: Vec<Part<'_>> = match inputs {
+        Some(buffers) => {
+            let bands = buffers.bands(n, band_len);
+            guides
+                .chunks_mut(band_len)
+                .zip(bands)
+                .zip(&mut fars)
+                .map(|((g, b), f)| (g, &mut [][..], Some(b), f))
+                .collect()
+        }
+        None => {
+            let acc = sums.acc.chunks_mut(band_len);
+            guides.chunks_mut(band_len).zip(acc).zip(&mut fars).map(|((g, a), f)| (g, a, None, f)).collect()
+        }
     };
-    let totals = bands::run(parts, frame.schedule, hooks, |band, (gs, accs)| {
+    let filtered = path.filtered();
+    let totals = bands::run(parts, frame.schedule, hooks, |band, (gs, accs, inputs, far)| {
         if sums.stale {
             accs.fill(PixelSums::default());
         }
@@ -661,42 +682,32 @@ fn trace_guides(
                 a.samples += 1;
             }
         });
+        // The filter's inputs, while the band's guide samples are in cache.
+        if let Some(mut inputs) = inputs {
+            for (k, g) in gs.iter().enumerate() {
+                *far = far.max(inputs.put(k, g.sample.indirect, g.sample.guide, depth_scale));
+            }
+        }
         hooks.report((gs.len() / w) as u64);
         BandStats { rays: tracer.counts(), rejected, clamped }
     })?;
     stats.rays.add(&totals.rays);
     stats.rejected_samples += totals.rejected;
     stats.clamped_samples += totals.clamped;
-    Ok(guides)
+    Ok((guides, fars.into_iter().fold(0.0, f32::max)))
 }
 
-/// A pass's second step: the guide rays' indirect light filtered, guided by their normals and
-/// depths, into the kept [`FILTER_BUFFERS`] (the caller gives them back).
-fn filter_guides(
-    world: &World,
-    frame: &Frame,
-    guides: &[GuidePixel],
-    filter: &Filter,
-) -> Result<FilterBuffers, RenderError> {
-    let mut buffers = FILTER_BUFFERS.lock().ok().and_then(|mut kept| kept.take()).unwrap_or_default();
-    let height = guides.len() / frame.width.max(1);
-    filter_indirect(
-        |i| guides[i].sample.indirect,
-        |i| guides[i].sample.guide,
-        frame.width,
-        height,
-        depth_scale(world),
-        filter,
-        &mut buffers,
-    )?;
-    Ok(buffers)
+/// The kept [`FILTER_BUFFERS`] (or new ones), for a pass to fill and filter and then give
+/// back with [`keep_filter_buffers`].
+fn take_filter_buffers() -> FilterBuffers {
+    FILTER_BUFFERS.lock().ok().and_then(|mut kept| kept.take()).unwrap_or_default()
 }
 
 /// The last pass's filter planes (a 1024 × 768 frame's ten are 31 MB: made and page-faulted
 /// anew, they cost a Sponza frame's filter step more than the filter).
 static FILTER_BUFFERS: std::sync::Mutex<Option<FilterBuffers>> = std::sync::Mutex::new(None);
 
-/// Keep `buffers` for the next pass's [`filter_guides`].
+/// Keep `buffers` for the next pass's [`take_filter_buffers`].
 fn keep_filter_buffers(buffers: FilterBuffers) {
     if let Ok(mut kept) = FILTER_BUFFERS.lock() {
         *kept = Some(buffers);
@@ -818,6 +829,23 @@ impl FilterBuffers {
         }
     }
 
+    /// The input planes at `n` pixels, split into bands of `band_len` pixels.
+    fn bands(&mut self, n: usize, band_len: usize) -> Vec<InputBand<'_>> {
+        self.size(n);
+        let FilterBuffers { indirect, normal, depth, .. } = self;
+        let [p0, p1, p2] = indirect;
+        let [n0, n1, n2] = normal;
+        let mut planes = [p0, p1, p2, n0, n1, n2, depth].map(|p| p.chunks_mut(band_len.max(1)));
+        let mut bands = Vec::with_capacity(n.div_ceil(band_len.max(1)));
+        // The seven planes are equally long, so they run out of bands together.
+        while let [Some(a), Some(b), Some(c), Some(d), Some(e), Some(f), Some(g)] =
+            planes.each_mut().map(Iterator::next)
+        {
+            bands.push(InputBand([a, b, c, d, e, f, g]));
+        }
+        bands
+    }
+
     /// The filtered indirect light of pixel `i` (after [`filter_indirect`]).
     #[inline]
     pub(crate) fn filtered(&self, i: usize) -> Rgb {
@@ -825,11 +853,87 @@ impl FilterBuffers {
     }
 }
 
+/// One band's rows of a [`FilterBuffers`]'s input planes: demodulated indirect light (3),
+/// guide normal (3) and depth, as [`FilterBuffers::bands`] splits them.
+pub(crate) struct InputBand<'a>([&'a mut [f32]; 7]);
+
+impl InputBand<'_> {
+    /// Pixel `k` of the band: indirect light `indirect` at guide vertex `guide` (depth times
+    /// `depth_scale`), or, without one, a zero normal and [`MISSING`] depth. Returns the
+    /// depth written.
+    #[inline]
+    fn put(&mut self, k: usize, indirect: Rgb, guide: Option<integrator::GuideGeometry>, depth_scale: f32) -> f32 {
+        let (ind, nrm, z) = match guide {
+            Some(q) => (indirect, q.normal, q.depth * depth_scale),
+            None => (Rgb::ZERO, Vec3::ZERO, MISSING),
+        };
+        let [p0, p1, p2, n0, n1, n2, d] = &mut self.0;
+        (p0[k], p1[k], p2[k]) = (ind.x, ind.y, ind.z);
+        (n0[k], n1[k], n2[k]) = (nrm.x, nrm.y, nrm.z);
+        d[k] = z;
+        z
+    }
+}
+
+/// The depth [`InputBand::put`] writes for a pixel without a guide vertex until
+/// [`filter_inputs`] knows the farthest guide (depths are never negative).
+const MISSING: f32 = -1.0;
+
+/// Fill `buffers`' input planes from `indirect(i)` and `guide(i)` for every pixel, in
+/// parallel bands, and return the largest guide depth (times `depth_scale`; 0 if none).
+fn fill_inputs(
+    indirect: impl Fn(usize) -> Rgb + Sync,
+    guide: impl Fn(usize) -> Option<integrator::GuideGeometry> + Sync,
+    n: usize,
+    band_len: usize,
+    depth_scale: f32,
+    buffers: &mut FilterBuffers,
+) -> f32 {
+    let bands = buffers.bands(n, band_len);
+    bands
+        .into_par_iter()
+        .enumerate()
+        .map(|(b, mut band)| {
+            let mut far = 0.0f32;
+            for k in 0..band.0[6].len() {
+                let i = b * band_len + k;
+                far = far.max(band.put(k, indirect(i), guide(i), depth_scale));
+            }
+            far
+        })
+        .reduce(|| 0.0f32, f32::max)
+}
+
+/// Filter the demodulated indirect light in `buffers`' input planes (filled by
+/// [`InputBand::put`], whose largest depth is `far`), guided by their normals and depths,
+/// into `buffers` (read with [`FilterBuffers::filtered`]). Depth is divided by the scene's
+/// diagonal (a constant of the scene, not of the view); pixels without a guide vertex get a
+/// zero normal and a depth one scene diagonal beyond the farthest guide, set here in one
+/// pass over the depth plane.
+fn filter_inputs(
+    width: usize,
+    height: usize,
+    far: f32,
+    filter: &Filter,
+    buffers: &mut FilterBuffers,
+) -> Result<(), RenderError> {
+    let FilterBuffers { indirect: planes, normal, depth, out } = buffers;
+    let far = far + 1.0;
+    depth.par_chunks_mut(1 << 14).for_each(|d| {
+        for z in d {
+            if *z == MISSING {
+                *z = far;
+            }
+        }
+    });
+    let guide = glint_filter::Guide { width, height, normal: [&normal[0], &normal[1], &normal[2]], depth: &depth[..] };
+    let [o0, o1, o2] = &mut *out;
+    glint_filter::apply_into(filter, [&planes[0], &planes[1], &planes[2]], &guide, [o0, o1, o2])
+        .map_err(|e| RenderError::Filter(e.to_string()))
+}
+
 /// Filter demodulated indirect light (`indirect(i)` for pixel i, used where the pixel has a
-/// guide vertex `guide(i)`), guided by the guide vertices' normals and depths, into
-/// `buffers` (read with [`FilterBuffers::filtered`]). Depth is divided by the scene's diagonal
-/// (a constant of the scene, not of the view); pixels without a guide vertex get a zero normal
-/// and a depth one scene diagonal beyond the farthest guide.
+/// guide vertex `guide(i)`) as [`filter_inputs`] does, its planes filled first.
 fn filter_indirect(
     indirect: impl Fn(usize) -> Rgb + Sync,
     guide: impl Fn(usize) -> Option<integrator::GuideGeometry> + Sync,
@@ -840,39 +944,53 @@ fn filter_indirect(
     buffers: &mut FilterBuffers,
 ) -> Result<(), RenderError> {
     let n = width * height;
-    let far = (0..n)
-        .into_par_iter()
-        .with_min_len(4096)
-        .filter_map(|i| guide(i).map(|q| q.depth * depth_scale))
-        .reduce(|| 0.0f32, f32::max)
-        + 1.0;
     buffers.size(n);
-    let FilterBuffers { indirect: planes, normal, depth, out } = buffers;
-    let rows = width * 8;
-    let [p0, p1, p2] = &mut *planes;
-    let [n0, n1, n2] = &mut *normal;
-    p0.par_chunks_mut(rows)
-        .zip(p1.par_chunks_mut(rows))
-        .zip(p2.par_chunks_mut(rows))
-        .zip(n0.par_chunks_mut(rows))
-        .zip(n1.par_chunks_mut(rows))
-        .zip(n2.par_chunks_mut(rows))
-        .zip(depth.par_chunks_mut(rows))
-        .enumerate()
-        .for_each(|(band, ((((((p0, p1), p2), n0), n1), n2), d))| {
-            for k in 0..p0.len() {
-                let i = band * rows + k;
-                let (ind, nrm, z) = match guide(i) {
-                    Some(q) => (indirect(i), q.normal, q.depth * depth_scale),
-                    None => (Rgb::ZERO, Vec3::ZERO, far),
-                };
-                (p0[k], p1[k], p2[k]) = (ind.x, ind.y, ind.z);
-                (n0[k], n1[k], n2[k]) = (nrm.x, nrm.y, nrm.z);
-                d[k] = z;
-            }
-        });
-    let guide = glint_filter::Guide { width, height, normal: [&normal[0], &normal[1], &normal[2]], depth: &depth[..] };
-    let [o0, o1, o2] = &mut *out;
-    glint_filter::apply_into(filter, [&planes[0], &planes[1], &planes[2]], &guide, [o0, o1, o2])
-        .map_err(|e| RenderError::Filter(e.to_string()))
+    let far = fill_inputs(indirect, guide, n, width * 8, depth_scale, buffers);
+    filter_inputs(width, height, far, filter, buffers)
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::expect_used)] // test code: a failure is the report
+
+    use super::*;
+    use crate::settings::ImageSettings;
+
+    #[test]
+    fn the_guide_rays_write_the_inputs_a_fill_from_their_samples_writes() {
+        // Sky shows between the spheres, so some pixels have no guide vertex.
+        let text = include_str!("../../../../scenes/whitted-bench.toml");
+        let scene = glint_formats::load_scene_str(text, std::path::Path::new("."), "bench.toml").expect("scene").scene;
+        let world = World::new(scene);
+        let (w, h) = (40usize, 26usize);
+        let schedule = crate::bands::Schedule::WorkStealing;
+        let image = ImageSettings { width: w as u32, height: h as u32, seed: 3, schedule, window: None };
+        let filter = Filter::Guided(glint_filter::GuidedParams::for_width(w));
+        let path = PathSettings { filter, ..PathSettings::default() };
+        let frame = Frame::new(&world, &world.scene().camera, &image, &path);
+        let mut acc = vec![PixelSums::default(); w * h];
+        let sums = Sums { acc: &mut acc, stale: true };
+        let mut traced = FilterBuffers::default();
+        let mut stats = FrameStats::default();
+        let (guides, far) =
+            trace_guides(&world, &frame, &path, 0, 1, sums, Some(&mut traced), &Hooks::default(), &mut stats)
+                .expect("trace");
+        let mut filled = FilterBuffers::default();
+        let scale = depth_scale(&world);
+        let want =
+            fill_inputs(|i| guides[i].sample.indirect, |i| guides[i].sample.guide, w * h, 7 * w, scale, &mut filled);
+        assert_eq!(far.to_bits(), want.to_bits());
+        assert!(far > 0.0);
+        let bits = |b: &FilterBuffers| {
+            let planes = b.indirect.iter().chain(&b.normal).chain([&b.depth]);
+            planes.map(|p| p.iter().map(|v| v.to_bits()).collect::<Vec<_>>()).collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&traced), bits(&filled));
+        let missing = traced.depth.iter().filter(|&&z| z == MISSING).count();
+        assert!(missing > 0 && missing < w * h, "{missing} pixels without a guide vertex");
+        // Filtering sets them one scene diagonal beyond the farthest guide.
+        filter_inputs(w, h, far, &path.filter, &mut traced).expect("filter");
+        assert!(traced.depth.iter().all(|&z| z != MISSING && z <= far + 1.0));
+        assert_eq!(traced.depth.iter().filter(|&&z| z == far + 1.0).count(), missing);
+    }
 }
