@@ -676,7 +676,7 @@ pub struct BenchFiltersArgs {
     pub threads: Option<usize>,
     /// Catch a regression: each filter's median over the guided 4-D filter's (r = 28) from
     /// the same run must stay within 2x the ratio recorded in BENCHMARKS.md 6.1 (A-Trous with
-    /// AVX-512: 13.2); a filter past it is named and the command fails. Meant for the default
+    /// AVX-512: 13.5); a filter past it is named and the command fails. Meant for the default
     /// size.
     #[arg(long)]
     pub check: bool,
