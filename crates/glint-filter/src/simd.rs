@@ -1,5 +1,5 @@
 //! The crate's only `unsafe`: AVX2 + FMA builds of the kernels, entered after runtime
-//! detection, and the AVX2 horizontal box sum.
+//! detection, the AVX2 horizontal box sum, and the prefetch hint A-Trous gives.
 //!
 //! A kernel is written once, generic over [`Kernels`], as an `#[inline(always)]` function in
 //! its module. [`Portable`] runs it as compiled for the baseline; an [`Avx2`] value — which only
@@ -136,13 +136,22 @@ impl Kernels for Avx2 {
 
     #[inline(always)]
     fn prefetch<T>(self, p: *const T) {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: a prefetch is a hint: it reads no memory the program sees and never faults,
-        // whatever the address.
-        unsafe {
-            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.cast())
-        };
+        prefetch_t0(p);
     }
+}
+
+/// `prefetcht0` of the line holding `p` (what [`Kernels::prefetch`] does where the CPU was
+/// detected: SSE has it, so any x86-64).
+#[inline(always)]
+fn prefetch_t0<T>(p: *const T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is a hint: it reads no memory the program sees and never faults,
+    // whatever the address.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.cast())
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
 }
 
 /// `a · b + c` rounded once, lane by lane: inside the `fma` wrappers one vfmadd per register,
@@ -192,12 +201,7 @@ impl Kernels for Avx512 {
 
     #[inline(always)]
     fn prefetch<T>(self, p: *const T) {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: a prefetch is a hint: it reads no memory the program sees and never faults,
-        // whatever the address.
-        unsafe {
-            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.cast())
-        };
+        prefetch_t0(p);
     }
 }
 
