@@ -944,7 +944,6 @@ fn filter_indirect(
     buffers: &mut FilterBuffers,
 ) -> Result<(), RenderError> {
     let n = width * height;
-    buffers.size(n);
     let far = fill_inputs(indirect, guide, n, width * 8, depth_scale, buffers);
     filter_inputs(width, height, far, filter, buffers)
 }
