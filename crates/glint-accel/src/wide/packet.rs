@@ -6,8 +6,8 @@
 //! all 8 rays with one SIMD operation per slab (the rays, not the children, fill the lanes).
 //!
 //! Exactness: per lane the box test is the single-ray test (`traverse::node_test`) operation
-//! for operation, the leaves run the single-ray packet test ([`packet_closest`] /
-//! [`packet_any`]) per active ray, children are culled per ray against that ray's own `tmax`,
+//! for operation, the leaves run the single-ray leaf test (`avx2::leaf_closest` /
+//! `leaf_any`) per active ray, children are culled per ray against that ray's own `tmax`,
 //! and equally near hits are resolved by the lowest primitive index ([`super::walk::closer`]), so
 //! the result does not depend on the visiting order: `out[i]` equals the single-ray kernel's
 //! answer for `rays[i]`. Rays are grouped by direction octant (the near/far planes are picked
@@ -16,7 +16,7 @@
 
 use super::dispatch::{Any, Closest};
 use super::frustum::{Frustum, closest_frustum};
-use super::sse::{TriRay4, packet_any, packet_closest};
+use super::sse::TriRay4;
 use super::walk::sort_keys;
 use super::{EMPTY_SLOT, LEAF, Stack, WideBvh, avx2, leaf_packets};
 use crate::Hit;
@@ -434,9 +434,7 @@ fn closest_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32, out: 
         } else {
             for i in Lanes(active) {
                 let tr = leaf_rays.get(i);
-                for p in &bvh.packets[leaf_packets(cur)] {
-                    pr.tmax[i] = packet_closest(p, tr, pr.tmax[i], &mut out[i]);
-                }
+                pr.tmax[i] = avx2::leaf_closest(tr, &bvh.packets[leaf_packets(cur)], pr.tmax[i], &mut out[i]);
             }
             tmax = load(&pr.tmax);
         }
@@ -486,7 +484,7 @@ fn any_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32) -> u32 {
         } else {
             for i in Lanes(active) {
                 let tr = leaf_rays.get(i);
-                if bvh.packets[leaf_packets(cur)].iter().any(|p| packet_any(p, tr, ray_tmax[i])) {
+                if avx2::leaf_any(tr, &bvh.packets[leaf_packets(cur)], ray_tmax[i]) {
                     done |= 1 << i;
                     pr.tmax[i] = f32::NEG_INFINITY;
                 }

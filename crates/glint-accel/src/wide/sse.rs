@@ -21,7 +21,7 @@ use std::arch::x86_64::*;
 
 /// Four f32 lanes in an SSE register.
 #[derive(Clone, Copy)]
-pub(super) struct F4(__m128);
+pub(super) struct F4(pub(super) __m128);
 
 impl Simd<4> for F4 {
     #[inline(always)]
@@ -130,10 +130,10 @@ impl F4 {
 
 /// Per-ray constants of the packet test.
 pub(super) struct TriRay4 {
-    k: [usize; 3],
-    org: [F4; 3],
-    s: [F4; 3],
-    tmin: F4,
+    pub(super) k: [usize; 3],
+    pub(super) org: [F4; 3],
+    pub(super) s: [F4; 3],
+    pub(super) tmin: F4,
     woop: WoopRay,
     tmin_s: f32,
 }
@@ -154,19 +154,20 @@ impl TriRay4 {
     }
 }
 
-/// The lanes after the watertight test: hits (lanes with a zero edge function excluded),
-/// lanes needing the exact fallback, and t, V, W, det.
-struct Lanes4 {
-    hit: u32,
-    zero: u32,
-    t: F4,
-    v: F4,
-    w: F4,
-    det: F4,
+/// The lanes after the watertight test, `L` of them in vectors `V` (one packet in an [`F4`], or
+/// two side by side in AVX's 8 lanes): hits (lanes with a zero edge function excluded), lanes
+/// needing the exact fallback, and t, V, W, det.
+pub(super) struct Lanes<V> {
+    pub(super) hit: u32,
+    pub(super) zero: u32,
+    pub(super) t: V,
+    pub(super) v: V,
+    pub(super) w: V,
+    pub(super) det: V,
 }
 
 #[inline(always)]
-fn tri4(p: &TriPacket, r: &TriRay4, tmax: F4) -> Lanes4 {
+fn tri4(p: &TriPacket, r: &TriRay4, tmax: F4) -> Lanes<F4> {
     let [kx, ky, kz] = r.k;
     let rel = |vert: usize, a: usize, o: usize| F4::load(&p.v[vert][a]).sub(r.org[o]);
     let (ax, ay, az) = (rel(0, kx, 0), rel(0, ky, 1), rel(0, kz, 2));
@@ -193,7 +194,7 @@ fn tri4(p: &TriPacket, r: &TriRay4, tmax: F4) -> Lanes4 {
     let ok = t.gt(r.tmin).and(t.le(tmax)).and(det.ne(zero));
     let ok = any_neg.and(any_pos).andnot(ok);
     let zero_bits = any_zero.bits();
-    Lanes4 { hit: ok.bits() & !zero_bits, zero: zero_bits, t, v, w, det }
+    Lanes { hit: ok.bits() & !zero_bits, zero: zero_bits, t, v, w, det }
 }
 
 const _: () = assert!(PACKET == 4);
@@ -201,52 +202,73 @@ const _: () = assert!(PACKET == 4);
 /// Closest-hit leaf step: tests one packet, updates `best`, returns the new `tmax`.
 #[inline(always)]
 pub(super) fn packet_closest(p: &TriPacket, r: &TriRay4, tmax: f32, best: &mut Option<Hit>) -> f32 {
-    let l = tri4(p, r, F4::splat(tmax));
-    let mut tmax = tmax;
-    if l.hit != 0 {
-        let t = l.t.store();
-        let mut m = l.hit;
-        let mut lane = m.trailing_zeros() as usize & 3;
-        m &= m - 1;
-        while m != 0 {
-            let i = m.trailing_zeros() as usize & 3;
-            if t[i] < t[lane] || (t[i] == t[lane] && p.prim[i] < p.prim[lane]) {
-                lane = i;
-            }
-            m &= m - 1;
-        }
-        if closer(t[lane], p.prim[lane], best) {
-            let (v, w, det) = (l.v.store(), l.w.store(), l.det.store());
-            tmax = t[lane];
-            *best = Some(Hit { t: t[lane], prim: p.prim[lane], u: v[lane] / det[lane], v: w[lane] / det[lane] });
-        }
-    }
-    let mut z = l.zero;
-    while z != 0 {
-        let lane = z.trailing_zeros() as usize & 3;
-        let [a, b, c] = p.lane(lane);
-        if let Some(h) = woop(&r.woop, a, b, c, r.tmin_s, tmax)
-            && closer(h.t, p.prim[lane], best)
-        {
-            tmax = h.t;
-            *best = Some(Hit { t: h.t, prim: p.prim[lane], u: h.u, v: h.v });
-        }
-        z &= z - 1;
-    }
-    tmax
+    finish_closest(std::slice::from_ref(p), tri4(p, r, F4::splat(tmax)), r, tmax, best)
 }
 
 /// Any-hit leaf step.
 #[inline(always)]
 pub(super) fn packet_any(p: &TriPacket, r: &TriRay4, tmax: f32) -> bool {
     let l = tri4(p, r, F4::splat(tmax));
+    finish_any(std::slice::from_ref(p), l.hit, l.zero, r, tmax)
+}
+
+/// The closest-hit step after the lane test `l` of `packets` (lane `i` is lane `i % 4` of packet
+/// `i / 4`): the nearest hit lane (lowest primitive among equals) replaces `best` by
+/// [`closer`], then the zero lanes are decided by the scalar test. Returns the new `tmax`.
+#[inline(always)]
+pub(super) fn finish_closest<const L: usize, V: Simd<L>>(
+    packets: &[TriPacket],
+    l: Lanes<V>,
+    r: &TriRay4,
+    tmax: f32,
+    best: &mut Option<Hit>,
+) -> f32 {
+    let prim = |i: usize| packets[i / PACKET].prim[i % PACKET];
+    let mut tmax = tmax;
     if l.hit != 0 {
-        return true;
+        let t = l.t.store();
+        let mut m = l.hit;
+        let mut lane = m.trailing_zeros() as usize % L;
+        m &= m - 1;
+        while m != 0 {
+            let i = m.trailing_zeros() as usize % L;
+            if t[i] < t[lane] || (t[i] == t[lane] && prim(i) < prim(lane)) {
+                lane = i;
+            }
+            m &= m - 1;
+        }
+        if closer(t[lane], prim(lane), best) {
+            let (v, w, det) = (l.v.store(), l.w.store(), l.det.store());
+            tmax = t[lane];
+            *best = Some(Hit { t: t[lane], prim: prim(lane), u: v[lane] / det[lane], v: w[lane] / det[lane] });
+        }
     }
     let mut z = l.zero;
     while z != 0 {
-        let lane = z.trailing_zeros() as usize & 3;
-        let [a, b, c] = p.lane(lane);
+        let lane = z.trailing_zeros() as usize % L;
+        let [a, b, c] = packets[lane / PACKET].lane(lane % PACKET);
+        if let Some(h) = woop(&r.woop, a, b, c, r.tmin_s, tmax)
+            && closer(h.t, prim(lane), best)
+        {
+            tmax = h.t;
+            *best = Some(Hit { t: h.t, prim: prim(lane), u: h.u, v: h.v });
+        }
+        z &= z - 1;
+    }
+    tmax
+}
+
+/// The any-hit step after a lane test of `packets` (lanes numbered as in [`finish_closest`]).
+#[inline(always)]
+pub(super) fn finish_any(packets: &[TriPacket], hit: u32, zero: u32, r: &TriRay4, tmax: f32) -> bool {
+    if hit != 0 {
+        return true;
+    }
+    let mut z = zero;
+    while z != 0 {
+        let lane = z.trailing_zeros() as usize;
+        let Some(p) = packets.get(lane / PACKET) else { break };
+        let [a, b, c] = p.lane(lane % PACKET);
         if woop(&r.woop, a, b, c, r.tmin_s, tmax).is_some() {
             return true;
         }

@@ -6,7 +6,11 @@
 //! `sse.rs` and VEX/AVX2 code in `avx2.rs`.
 //!
 //! The visiting order is `walk.rs`'s: nearest entry first for the closest hit, found from the
-//! node test's entry distances; a node with one child met goes straight down without sorting.
+//! node test's entry distances; a node with one child met goes straight down without sorting,
+//! two or three met are ordered by one comparison or a three-exchange network (incoherent
+//! rays meet two or three children at most nodes; the general key sort of `push_farther` for
+//! more). Leaves go through [`Simd::closest_in_leaf`], so that a vector of 8 lanes tests two
+//! triangle packets at once.
 
 use super::sse::{TriRay4, packet_any, packet_closest};
 use super::walk::{Entry, Kernel, Stack, push_farther};
@@ -27,6 +31,29 @@ pub(super) trait Simd<const N: usize>: Copy {
     fn min(self, o: Self) -> Self;
     /// Bit `i` set where `self[i] <= o[i]`.
     fn le_mask(self, o: Self) -> u32;
+
+    /// [`Kernel::closest_in_leaf`] with this vector's instruction set: one packet at a time
+    /// unless the vector holds two (AVX's 8 lanes, `avx2.rs`).
+    #[inline(always)]
+    fn closest_in_leaf(r: &TriRay4, packets: &[TriPacket], mut tmax: f32, best: &mut Option<Hit>) -> f32 {
+        for p in packets {
+            tmax = packet_closest(p, r, tmax, best);
+        }
+        tmax
+    }
+
+    /// [`Kernel::any_in_leaf`], as [`Simd::closest_in_leaf`].
+    // A loop, not an iterator adapter: a closure handed to a library function cannot be
+    // inlined into it from a `#[target_feature]` caller, and the leaf test would become a call.
+    #[inline(always)]
+    fn any_in_leaf(r: &TriRay4, packets: &[TriPacket], tmax: f32) -> bool {
+        for p in packets {
+            if packet_any(p, r, tmax) {
+                return true;
+            }
+        }
+        false
+    }
 }
 
 /// Per-ray constants of the box test.
@@ -43,8 +70,9 @@ impl<S> NodeRay<S> {
     where
         S: Simd<N>,
     {
-        // Exact reciprocal (Ize 2013): no rcp approximation.
-        let inv = glint_core::Vec3::ONE / ray.dir;
+        // Exact reciprocal (Ize 2013): no rcp approximation; one SIMD division for the three
+        // lanes (the same correctly rounded quotients as three scalar ones).
+        let inv = glint_core::Vec3A::ONE / glint_core::Vec3A::from(ray.dir);
         let (o, d) = (ray.origin, ray.dir);
         Self {
             org: [S::splat(o.x), S::splat(o.y), S::splat(o.z)],
@@ -97,6 +125,33 @@ impl<const N: usize, S: Simd<N>> Kernel<N> for SimdKernel<S> {
             return Some(node.child[mask.trailing_zeros() as usize % N]);
         }
         let d = tn.store();
+        let rest = mask & (mask - 1);
+        if rest & (rest - 1) == 0 {
+            // Two children met, the most common case of a branching walk: one comparison of the
+            // keys `push_farther` would sort (entry distance bits, then slot), no key array.
+            let (a, b) = (mask.trailing_zeros() as usize % N, rest.trailing_zeros() as usize % N);
+            let (near, far) = if d[b].to_bits() < d[a].to_bits() { (b, a) } else { (a, b) };
+            stack.push(Entry { child: node.child[far], t: d[far] });
+            return Some(node.child[near]);
+        }
+        let key = |i: usize| (d[i].to_bits() as u64) << 32 | i as u64;
+        let last = rest & (rest - 1);
+        if last & (last - 1) == 0 {
+            // Three: a branch-free sorting network of three compare-exchanges.
+            let (a, b, c) = (
+                key(mask.trailing_zeros() as usize % N),
+                key(rest.trailing_zeros() as usize % N),
+                key(last.trailing_zeros() as usize % N),
+            );
+            let (a, b) = (a.min(b), a.max(b));
+            let (b, c) = (b.min(c), b.max(c));
+            let (a, b) = (a.min(b), a.max(b));
+            for k in [c, b] {
+                let slot = k as usize % N;
+                stack.push(Entry { child: node.child[slot], t: d[slot] });
+            }
+            return Some(node.child[a as usize % N]);
+        }
         let mut keys = [0u64; N];
         let mut k = 0;
         let mut m = mask;
@@ -125,22 +180,12 @@ impl<const N: usize, S: Simd<N>> Kernel<N> for SimdKernel<S> {
     }
 
     #[inline(always)]
-    fn closest_in_leaf(r: &TriRay4, packets: &[TriPacket], mut tmax: f32, best: &mut Option<Hit>) -> f32 {
-        for p in packets {
-            tmax = packet_closest(p, r, tmax, best);
-        }
-        tmax
+    fn closest_in_leaf(r: &TriRay4, packets: &[TriPacket], tmax: f32, best: &mut Option<Hit>) -> f32 {
+        S::closest_in_leaf(r, packets, tmax, best)
     }
 
-    // A loop, not an iterator adapter: a closure handed to a library function cannot be
-    // inlined into it from a `#[target_feature]` caller, and the leaf test would become a call.
     #[inline(always)]
     fn any_in_leaf(r: &TriRay4, packets: &[TriPacket], tmax: f32) -> bool {
-        for p in packets {
-            if packet_any(p, r, tmax) {
-                return true;
-            }
-        }
-        false
+        S::any_in_leaf(r, packets, tmax)
     }
 }
