@@ -214,6 +214,10 @@ impl Bsdf {
         if let Some(p) = &self.physical {
             return p.eval(wi) - self.diffuse * p.eval_diffuse(wi);
         }
+        // A Phong material without a glossy lobe (every diffuse surface) skips the lobe's `powf`.
+        if self.glossy <= 0.0 {
+            return Rgb::ZERO;
+        }
         let Some(cos) = self.reflects(wi) else { return Rgb::ZERO };
         Rgb::splat(self.glossy * (self.exponent + 2.0) / TAU * self.glossy_lobe(wi) * cos)
     }
