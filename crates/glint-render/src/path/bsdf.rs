@@ -200,12 +200,44 @@ impl Bsdf {
         if let Some(p) = &self.physical {
             return p.eval(wi);
         }
+        self.phong_eval_cos(wi, &|| self.glossy_lobe(wi))
+    }
+
+    /// `(eval_cos(wi), pdf(wi))`, the same bits as the two calls, with a Phong glossy lobe's
+    /// `powf` evaluated once for both (light samples weighed by MIS, BSDF samples).
+    #[inline]
+    pub fn eval_cos_and_pdf(&self, wi: Vec3) -> (Rgb, f32) {
+        if let Some(p) = &self.physical {
+            return (p.eval(wi), p.pdf(wi));
+        }
+        let lobe = std::cell::OnceCell::new();
+        let lobe = || *lobe.get_or_init(|| self.glossy_lobe(wi));
+        (self.phong_eval_cos(wi, &lobe), self.phong_pdf(wi, &lobe))
+    }
+
+    /// The Phong `eval_cos`, the glossy lobe's value toward `wi` from `lobe` (asked only when
+    /// there is a glossy lobe and `wi` is reflected).
+    #[inline]
+    fn phong_eval_cos(&self, wi: Vec3, lobe: &impl Fn() -> f32) -> Rgb {
         let Some(cos) = self.reflects(wi) else { return Rgb::ZERO };
         let mut f = self.diffuse * FRAC_1_PI;
         if self.glossy > 0.0 {
-            f += Rgb::splat(self.glossy * (self.exponent + 2.0) / TAU * self.glossy_lobe(wi));
+            f += Rgb::splat(self.glossy * (self.exponent + 2.0) / TAU * lobe());
         }
         f * cos
+    }
+
+    /// The Phong `pdf`, the glossy lobe from `lobe` as in [`Bsdf::phong_eval_cos`].
+    #[inline]
+    fn phong_pdf(&self, wi: Vec3, lobe: &impl Fn() -> f32) -> f32 {
+        let mut p = 0.0;
+        if self.p_diffuse > 0.0 {
+            p += self.p_diffuse * self.pdf_diffuse(wi);
+        }
+        if self.p_glossy > 0.0 {
+            p += self.p_glossy * ((self.exponent + 1.0) / TAU * lobe());
+        }
+        p
     }
 
     /// Everything of `eval_cos` but the diffuse lobe.
@@ -237,24 +269,12 @@ impl Bsdf {
         self.reflects(wi).map_or(0.0, |c| c * FRAC_1_PI)
     }
 
-    #[inline]
-    fn pdf_glossy(&self, wi: Vec3) -> f32 {
-        (self.exponent + 1.0) / TAU * self.glossy_lobe(wi)
-    }
-
     /// Solid-angle pdf of sampling `wi` from the whole BSDF (its non-delta part).
     pub fn pdf(&self, wi: Vec3) -> f32 {
         if let Some(p) = &self.physical {
             return p.pdf(wi);
         }
-        let mut p = 0.0;
-        if self.p_diffuse > 0.0 {
-            p += self.p_diffuse * self.pdf_diffuse(wi);
-        }
-        if self.p_glossy > 0.0 {
-            p += self.p_glossy * self.pdf_glossy(wi);
-        }
-        p
+        self.phong_pdf(wi, &|| self.glossy_lobe(wi))
     }
 
     /// Solid-angle pdf of [`Bsdf::sample_non_delta`].
@@ -349,11 +369,12 @@ impl Bsdf {
         let nd = self.p_non_delta();
         let wi = if u_lobe < self.p_diffuse / nd { self.sample_diffuse(u) } else { self.sample_glossy(u) };
         self.reflects(wi)?;
-        let pdf = if all_lobes { self.pdf(wi) } else { self.pdf(wi) / nd };
+        let (f, pdf) = self.eval_cos_and_pdf(wi);
+        let pdf = if all_lobes { pdf } else { pdf / nd };
         if !(pdf > 0.0 && pdf.is_finite()) {
             return None;
         }
-        Some(BsdfSample { wi, weight: self.eval_cos(wi) / pdf, pdf, delta: false })
+        Some(BsdfSample { wi, weight: f / pdf, pdf, delta: false })
     }
 
     /// Sample what is not diffuse among the non-delta lobes: direction and its

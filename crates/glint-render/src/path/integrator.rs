@@ -228,12 +228,16 @@ pub(super) fn light_samples(
     let u_choice = stream.next_1d();
     let u = stream.next_2d();
     if let Some(ls) = lights.sample(world, hit, u_choice, u) {
-        let f = bsdf.eval_cos(ls.wi);
+        let weighed = mis.filter(|_| ls.pdf > 0.0);
+        let (f, pdf) = match weighed {
+            Some(_) => bsdf.eval_cos_and_pdf(ls.wi),
+            None => (bsdf.eval_cos(ls.wi), 0.0),
+        };
         if f.max_element() > 0.0 {
             counts.shadow += 1;
-            let w = match mis {
-                Some(scale) if ls.pdf > 0.0 => power_heuristic(ls.pdf, bsdf.pdf(ls.wi) * scale),
-                _ => 1.0,
+            let w = match weighed {
+                Some(scale) => power_heuristic(ls.pdf, pdf * scale),
+                None => 1.0,
             };
             let diffuse = if ls.pdf > 0.0 { ls.weight * (w * bsdf.diffuse_shape(ls.wi)) } else { Rgb::ZERO };
             visit(&ls.shadow, f * ls.weight * w, diffuse);
