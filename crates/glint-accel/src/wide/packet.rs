@@ -17,7 +17,7 @@
 use super::dispatch::{Any, Closest};
 use super::frustum::{Frustum, closest_frustum};
 use super::sse::TriRay4;
-use super::walk::sort_keys;
+use super::walk::order_children;
 use super::{EMPTY_SLOT, LEAF, Stack, WideBvh, avx2, leaf_packets};
 use crate::Hit;
 use crate::bvh2::FAR_SCALE;
@@ -402,10 +402,10 @@ fn closest_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32, out: 
     'walk: loop {
         if cur & LEAF == 0 {
             let node = &bvh.nodes[cur as usize];
-            let mut keys = [0u64; 8];
+            let mut met = 0u32;
+            let mut near = [0.0f32; 8];
             let mut masks = [0u32; 8];
             let mut tns = [_mm256_setzero_ps(); 8];
-            let mut k = 0;
             for c in 0..8 {
                 if node.child[c] == EMPTY_SLOT {
                     continue;
@@ -413,20 +413,22 @@ fn closest_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32, out: 
                 let (m, tn) = box8(&node.bounds, c, &pr, tmax);
                 let m = m & active;
                 if m != 0 {
-                    keys[k] = (masked_min(tn, m).to_bits() as u64) << 32 | c as u64;
+                    near[c] = masked_min(tn, m);
                     masks[c] = m;
                     tns[c] = tn;
-                    k += 1;
+                    met |= 1 << c;
                 }
             }
-            if k > 0 {
-                let keys = &mut keys[..k];
-                sort_keys(keys);
-                for &key in keys[1..].iter().rev() {
-                    let c = key as usize % 8;
-                    stack.push(Entry8 { child: node.child[c], mask: masks[c], tn: store(tns[c]) });
+            if met != 0 {
+                // The order first, then the pushes: no intrinsic inside the closure.
+                let (mut farther, mut n) = ([0usize; 8], 0);
+                let c = order_children(met, &near, |c| {
+                    farther[n % 8] = c;
+                    n += 1;
+                });
+                for &f in &farther[..n.min(8)] {
+                    stack.push(Entry8 { child: node.child[f], mask: masks[f], tn: store(tns[f]) });
                 }
-                let c = keys[0] as usize % 8;
                 cur = node.child[c];
                 active = masks[c];
                 continue;

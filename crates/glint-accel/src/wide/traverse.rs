@@ -6,14 +6,12 @@
 //! `sse.rs` and VEX/AVX2 code in `avx2.rs`.
 //!
 //! The visiting order is `walk.rs`'s: nearest entry first for the closest hit, found from the
-//! node test's entry distances; a node with one child met goes straight down without sorting,
-//! two or three met are ordered by one comparison or a three-exchange network (incoherent
-//! rays meet two or three children at most nodes; the general key sort of `push_farther` for
-//! more). Leaves go through [`Simd::closest_in_leaf`], so that a vector of 8 lanes tests two
+//! node test's entry distances ([`order_children`]: one child met goes straight down, two or
+//! three are ordered without a key sort). Leaves go through [`Simd::closest_in_leaf`], so that a vector of 8 lanes tests two
 //! triangle packets at once.
 
 use super::sse::{TriRay4, packet_any, packet_closest};
-use super::walk::{Entry, Kernel, Stack, push_farther};
+use super::walk::{Entry, Kernel, Stack, order_children};
 use super::{TriPacket, WideNode};
 use crate::Hit;
 use crate::bvh2::FAR_SCALE;
@@ -125,43 +123,8 @@ impl<const N: usize, S: Simd<N>> Kernel<N> for SimdKernel<S> {
             return Some(node.child[mask.trailing_zeros() as usize % N]);
         }
         let d = tn.store();
-        let rest = mask & (mask - 1);
-        if rest & (rest - 1) == 0 {
-            // Two children met, the most common case of a branching walk: one comparison of the
-            // keys `push_farther` would sort (entry distance bits, then slot), no key array.
-            let (a, b) = (mask.trailing_zeros() as usize % N, rest.trailing_zeros() as usize % N);
-            let (near, far) = if d[b].to_bits() < d[a].to_bits() { (b, a) } else { (a, b) };
-            stack.push(Entry { child: node.child[far], t: d[far] });
-            return Some(node.child[near]);
-        }
-        let key = |i: usize| (d[i].to_bits() as u64) << 32 | i as u64;
-        let last = rest & (rest - 1);
-        if last & (last - 1) == 0 {
-            // Three: a branch-free sorting network of three compare-exchanges.
-            let (a, b, c) = (
-                key(mask.trailing_zeros() as usize % N),
-                key(rest.trailing_zeros() as usize % N),
-                key(last.trailing_zeros() as usize % N),
-            );
-            let (a, b) = (a.min(b), a.max(b));
-            let (b, c) = (b.min(c), b.max(c));
-            let (a, b) = (a.min(b), a.max(b));
-            for k in [c, b] {
-                let slot = k as usize % N;
-                stack.push(Entry { child: node.child[slot], t: d[slot] });
-            }
-            return Some(node.child[a as usize % N]);
-        }
-        let mut keys = [0u64; N];
-        let mut k = 0;
-        let mut m = mask;
-        while m != 0 {
-            let i = m.trailing_zeros() as usize % N;
-            keys[k % N] = (d[i].to_bits() as u64) << 32 | i as u64;
-            k += 1;
-            m &= m - 1;
-        }
-        Some(push_farther(node, &mut keys[..k.min(N)], &d, stack))
+        let near = order_children(mask, &d, |slot| stack.push(Entry { child: node.child[slot], t: d[slot] }));
+        Some(node.child[near])
     }
 
     #[inline(always)]

@@ -96,6 +96,52 @@ pub(super) fn occluded<const N: usize, K: Kernel<N>>(bvh: &WideBvh<N>, ray: &Ray
     }
 }
 
+/// The children of a node a ray (or a packet) meets, nearest first: bit `i` of `mask` (not 0)
+/// marks child `i`, `d[i]` its entry distance. Returns the nearest child's slot and hands the
+/// others to `push` farthest first (so that they pop nearest first), in the order of the keys
+/// `(entry distance bits, slot)` that [`push_farther`] sorts. Incoherent rays meet one, two
+/// or three children at most nodes: one goes straight down, two take one comparison, three a
+/// branch-free network of three compare-exchanges; more take the insertion sort.
+#[inline(always)]
+pub(crate) fn order_children<const N: usize>(mask: u32, d: &[f32; N], mut push: impl FnMut(usize)) -> usize {
+    let key = |i: usize| (d[i].to_bits() as u64) << 32 | i as u64;
+    let first = mask.trailing_zeros() as usize % N;
+    let rest = mask & mask.wrapping_sub(1);
+    if rest == 0 {
+        return first;
+    }
+    let second = rest.trailing_zeros() as usize % N;
+    let last = rest & (rest - 1);
+    if last == 0 {
+        let (near, far) = if key(second) < key(first) { (second, first) } else { (first, second) };
+        push(far);
+        return near;
+    }
+    if last & (last - 1) == 0 {
+        let (a, b, c) = (key(first), key(second), key(last.trailing_zeros() as usize % N));
+        let (a, b) = (a.min(b), a.max(b));
+        let (b, c) = (b.min(c), b.max(c));
+        let (a, b) = (a.min(b), a.max(b));
+        push(c as usize % N);
+        push(b as usize % N);
+        return a as usize % N;
+    }
+    let mut keys = [0u64; N];
+    let mut k = 0;
+    let mut m = mask;
+    while m != 0 {
+        keys[k % N] = key(m.trailing_zeros() as usize % N);
+        k += 1;
+        m &= m - 1;
+    }
+    let keys = &mut keys[..k.min(N)];
+    sort_keys(keys);
+    for &key in keys[1..].iter().rev() {
+        push(key as usize % N);
+    }
+    keys[0] as usize % N
+}
+
 /// Sorts the keys of the children a ray meets (`entry distance bits << 32 | slot`), pushes all
 /// but the nearest onto `stack` farthest first (so that they pop nearest first), each with its
 /// entry distance `dist[slot]`, and returns the nearest child.
