@@ -68,7 +68,27 @@ impl Simd<4> for F4 {
     }
 }
 
-impl F4 {
+/// The vector operations of the watertight triangle test beyond the node test's ([`Simd`]):
+/// lane masks (all ones / all zeros) of comparisons with x86's predicates (`ne` unordered:
+/// true for NaN, as `cmpneq`), their bit logic, and the arithmetic. `F4` here, `avx2.rs`'s
+/// `F8` for two packets at once.
+pub(super) trait TriOps<const L: usize>: Simd<L> {
+    fn add(self, o: Self) -> Self;
+    fn div(self, o: Self) -> Self;
+    fn eq(self, o: Self) -> Self;
+    fn lt(self, o: Self) -> Self;
+    fn gt(self, o: Self) -> Self;
+    fn le(self, o: Self) -> Self;
+    fn ne(self, o: Self) -> Self;
+    fn or(self, o: Self) -> Self;
+    fn and(self, o: Self) -> Self;
+    /// `!self & o`.
+    fn andnot(self, o: Self) -> Self;
+    /// Bit `i` set where lane `i`'s sign bit is.
+    fn bits(self) -> u32;
+}
+
+impl TriOps<4> for F4 {
     #[inline(always)]
     fn add(self, o: Self) -> Self {
         // SAFETY: SSE2 baseline.
@@ -79,7 +99,6 @@ impl F4 {
         // SAFETY: SSE2 baseline.
         F4(unsafe { _mm_div_ps(self.0, o.0) })
     }
-    /// Lane masks (all ones / all zeros) of comparisons, and their bit logic.
     #[inline(always)]
     fn eq(self, o: Self) -> Self {
         // SAFETY: SSE2 baseline.
@@ -115,7 +134,6 @@ impl F4 {
         // SAFETY: SSE2 baseline.
         F4(unsafe { _mm_and_ps(self.0, o.0) })
     }
-    /// `!self & o`.
     #[inline(always)]
     fn andnot(self, o: Self) -> Self {
         // SAFETY: SSE2 baseline.
@@ -166,14 +184,14 @@ pub(super) struct Lanes<V> {
     pub(super) det: V,
 }
 
+/// The watertight test (Woop, Benthin, Wald 2013, steps 3–6) on `L` lanes: `rel[v][a]` holds
+/// vertex `v`'s coordinate along the ray's permuted axis `a` (`kx, ky, kz`) relative to the
+/// ray's origin, `s` the shear. The operations of `primitives::woop` in its order, multiplies
+/// and subtractions never fused, so every lane has the scalar test's bits whatever the width.
 #[inline(always)]
-fn tri4(p: &TriPacket, r: &TriRay4, tmax: F4) -> Lanes<F4> {
-    let [kx, ky, kz] = r.k;
-    let rel = |vert: usize, a: usize, o: usize| F4::load(&p.v[vert][a]).sub(r.org[o]);
-    let (ax, ay, az) = (rel(0, kx, 0), rel(0, ky, 1), rel(0, kz, 2));
-    let (bx, by, bz) = (rel(1, kx, 0), rel(1, ky, 1), rel(1, kz, 2));
-    let (cx, cy, cz) = (rel(2, kx, 0), rel(2, ky, 1), rel(2, kz, 2));
-    let [sx, sy, sz] = r.s;
+pub(super) fn woop_lanes<const L: usize, V: TriOps<L>>(rel: [[V; 3]; 3], s: [V; 3], tmin: V, tmax: V) -> Lanes<V> {
+    let [[ax, ay, az], [bx, by, bz], [cx, cy, cz]] = rel;
+    let [sx, sy, sz] = s;
     // Shear, then the 2-D edge functions: multiply and subtract, never fused.
     let ax = ax.sub(sx.mul(az));
     let ay = ay.sub(sy.mul(az));
@@ -184,17 +202,27 @@ fn tri4(p: &TriPacket, r: &TriRay4, tmax: F4) -> Lanes<F4> {
     let u = cx.mul(by).sub(cy.mul(bx));
     let v = ax.mul(cy).sub(ay.mul(cx));
     let w = bx.mul(ay).sub(by.mul(ax));
-    let zero = F4::splat(0.0);
+    let zero = V::splat(0.0);
     let any_zero = u.eq(zero).or(v.eq(zero)).or(w.eq(zero));
     let any_neg = u.lt(zero).or(v.lt(zero)).or(w.lt(zero));
     let any_pos = u.gt(zero).or(v.gt(zero)).or(w.gt(zero));
     let det = u.add(v).add(w);
     let t = u.mul(sz.mul(az)).add(v.mul(sz.mul(bz))).add(w.mul(sz.mul(cz)));
     let t = t.div(det);
-    let ok = t.gt(r.tmin).and(t.le(tmax)).and(det.ne(zero));
+    let ok = t.gt(tmin).and(t.le(tmax)).and(det.ne(zero));
     let ok = any_neg.and(any_pos).andnot(ok);
     let zero_bits = any_zero.bits();
     Lanes { hit: ok.bits() & !zero_bits, zero: zero_bits, t, v, w, det }
+}
+
+#[inline(always)]
+fn tri4(p: &TriPacket, r: &TriRay4, tmax: F4) -> Lanes<F4> {
+    let [kx, ky, kz] = r.k;
+    let rel = |vert: usize| {
+        let v = &p.v[vert];
+        [F4::load(&v[kx]).sub(r.org[0]), F4::load(&v[ky]).sub(r.org[1]), F4::load(&v[kz]).sub(r.org[2])]
+    };
+    woop_lanes([rel(0), rel(1), rel(2)], r.s, r.tmin, tmax)
 }
 
 const _: () = assert!(PACKET == 4);
