@@ -7,8 +7,8 @@
 //!
 //! The visiting order is `walk.rs`'s: nearest entry first for the closest hit, found from the
 //! node test's entry distances ([`order_children`]: one child met goes straight down, two or
-//! three are ordered without a key sort). Leaves go through [`Simd::closest_in_leaf`], so that a vector of 8 lanes tests two
-//! triangle packets at once.
+//! three are ordered without a key sort). Leaves go through [`Simd::closest_in_leaf`], so that
+//! a vector of 8 lanes tests two triangle packets at once.
 
 use super::sse::{TriRay4, packet_any, packet_closest};
 use super::walk::{Entry, Kernel, Stack, order_children};

@@ -249,7 +249,28 @@ pub(crate) fn closer(t: f32, prim: u32, best: &Option<Hit>) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::Stack;
+    use super::{Stack, order_children, sort_keys};
+    use crate::procedural::Rng;
+
+    #[test]
+    fn children_come_in_the_order_of_the_sorted_keys() {
+        let mut rng = Rng::new(3);
+        for round in 0..40 {
+            // Distances from a few values, so that ties (broken by slot) are common.
+            let d: [f32; 8] = std::array::from_fn(|_| (rng.next_f32() * 4.0).floor() + round as f32);
+            for mask in 1u32..256 {
+                let mut keys: Vec<u64> =
+                    (0..8).filter(|i| mask >> i & 1 == 1).map(|i| (d[i].to_bits() as u64) << 32 | i as u64).collect();
+                sort_keys(&mut keys);
+                let expected: Vec<usize> = keys.iter().map(|k| (*k % 8) as usize).collect();
+                let mut pushed = Vec::new();
+                let near = order_children(mask, &d, |slot| pushed.push(slot));
+                // The stack pops the pushed children last first.
+                let order: Vec<usize> = std::iter::once(near).chain(pushed.into_iter().rev()).collect();
+                assert_eq!(order, expected, "mask {mask:08b}, distances {d:?}");
+            }
+        }
+    }
 
     #[test]
     fn the_stack_returns_what_was_pushed_across_the_spill() {
