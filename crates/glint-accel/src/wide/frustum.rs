@@ -4,8 +4,9 @@
 //! the whole packet at once with the interval bounds of the packet's slab distances (the
 //! frusta of Reshetov, Soupikov and Hurley, "Multi-Level Ray Tracing Algorithm", SIGGRAPH 2005,
 //! and of Embree's coherent mode): one SIMD operation per slab serves every ray, where
-//! `packet.rs` spends one per slab per child. A leaf tests its rays one by one, first against
-//! the leaf's own box, then against its triangles.
+//! `packet.rs` spends one per slab per child. A leaf tests its rays against the leaf's own box,
+//! then against its triangles: each triangle against all of them in lanes ([`LeafLanes`]) when
+//! they share the test's axis permutation, else ray by ray.
 //!
 //! Exactness. A ray's slab distance is `fl(fl(b - o) · inv)`. With one origin, `x = b - o` is
 //! the same for every ray, and `fl(x · inv)` is monotone in `inv` (rounding is monotone), so
@@ -197,7 +198,7 @@ pub(super) fn closest_frustum(
 /// ([`LeafLanes::closest`]: 8 rays a vector) beats each ray against 4 triangles at once
 /// (measured on Sponza's and the dragon's primary rays: 1 and 2 equal, 3–6 within noise,
 /// 9, i.e. never, 30 % slower).
-const MIN_LEAF_LANES: u32 = 2;
+pub(super) const MIN_LEAF_LANES: u32 = 2;
 
 /// The per-ray constants of the watertight triangle test (Woop, Benthin, Wald, JCGT 2013) for
 /// the rays of a packet in lanes, when they share its axis permutation (the dominant axis of
@@ -214,7 +215,7 @@ impl LeafLanes {
     /// `None` when two rays of `group` have different permutations (lanes outside `group`
     /// repeat the first ray's constants; the callers mask them out).
     #[inline(always)]
-    fn new(rays: &[Ray; 8], group: u32) -> Option<Self> {
+    pub(super) fn new(rays: &[Ray; 8], group: u32) -> Option<Self> {
         let first = WoopRay::new(&rays[group.trailing_zeros() as usize % 8]);
         let k = [first.kx, first.ky, first.kz];
         let mut org = [[0.0f32; 8]; 3];
@@ -246,7 +247,14 @@ impl LeafLanes {
     /// for lane: the same bits); hits closer than a ray's best replace it and lower its `tmax`.
     /// Lanes with a zero edge function take the exact test of `primitives::woop`, as there.
     #[inline(always)]
-    fn closest(&self, p: &TriPacket, rays: &[Ray; 8], active: u32, tmax: &mut [f32; 8], out: &mut [Option<Hit>; 8]) {
+    pub(super) fn closest(
+        &self,
+        p: &TriPacket,
+        rays: &[Ray; 8],
+        active: u32,
+        tmax: &mut [f32; 8],
+        out: &mut [Option<Hit>; 8],
+    ) {
         let [kx, ky, kz] = self.k;
         for j in 0..PACKET {
             // Unused lanes of a leaf's last packet repeat its last triangle: same answer.
@@ -272,6 +280,33 @@ impl LeafLanes {
                 }
             }
         }
+    }
+
+    /// Each triangle of `p` against the rays of `active`: the lanes with a hit in their
+    /// `(tmin, tmax]`, the single-ray any-hit test's answer lane for lane (zero-edge lanes take
+    /// the exact test of `primitives::woop`, as there).
+    #[inline(always)]
+    pub(super) fn any(&self, p: &TriPacket, rays: &[Ray; 8], active: u32, tmax: &[f32; 8]) -> u32 {
+        let [kx, ky, kz] = self.k;
+        let t = load(tmax);
+        let mut found = 0;
+        for j in 0..PACKET {
+            let todo = active & !found;
+            // Unused lanes of a leaf's last packet repeat its last triangle: same answer.
+            if todo == 0 || (j > 0 && p.prim[j] == p.prim[j - 1]) {
+                break;
+            }
+            let vert = |v: usize| [p.v[v][kx][j], p.v[v][ky][j], p.v[v][kz][j]];
+            let l = tri8(self, vert(0), vert(1), vert(2), t, todo);
+            found |= l.hit & todo;
+            for i in Lanes(l.zero & todo) {
+                let [a, b, c] = p.lane(j);
+                if woop(&WoopRay::new(&rays[i]), a, b, c, rays[i].tmin, tmax[i]).is_some() {
+                    found |= 1 << i;
+                }
+            }
+        }
+        found
     }
 }
 

@@ -7,7 +7,9 @@
 //!
 //! Exactness: per lane the box test is the single-ray test (`traverse::node_test`) operation
 //! for operation, the leaves run the single-ray leaf test (`avx2::leaf_closest` /
-//! `leaf_any`) per active ray, children are culled per ray against that ray's own `tmax`,
+//! `leaf_any`) per active ray, or, when the rays outnumber the leaf's triangles ([`lane_leaf`]),
+//! each triangle against the rays in lanes with the same operations (`frustum::LeafLanes`),
+//! children are culled per ray against that ray's own `tmax`,
 //! and equally near hits are resolved by the lowest primitive index ([`super::walk::closer`]), so
 //! the result does not depend on the visiting order: `out[i]` equals the single-ray kernel's
 //! answer for `rays[i]`. Rays are grouped by direction octant (the near/far planes are picked
@@ -15,7 +17,7 @@
 //! spread wider than a cone ([`coherent`]), takes the single-ray kernel ray by ray.
 
 use super::dispatch::{Any, Closest};
-use super::frustum::{Frustum, closest_frustum};
+use super::frustum::{Frustum, LeafLanes, closest_frustum};
 use super::sse::TriRay4;
 use super::walk::order_children;
 use super::{EMPTY_SLOT, LEAF, Stack, WideBvh, avx2, leaf_packets};
@@ -396,6 +398,7 @@ fn closest_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32, out: 
         return closest_frustum(bvh, &mut pr, &f, rays, group, out);
     }
     let mut leaf_rays = LeafRays::new(rays);
+    let mut lanes = None;
     let mut tmax = load(&pr.tmax);
     let mut stack = Stack::<Entry8>::new();
     let (mut cur, mut active) = (0u32, group);
@@ -434,9 +437,22 @@ fn closest_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32, out: 
                 continue;
             }
         } else {
-            for i in Lanes(active) {
-                let tr = leaf_rays.get(i);
-                pr.tmax[i] = avx2::leaf_closest(tr, &bvh.packets[leaf_packets(cur)], pr.tmax[i], &mut out[i]);
+            let packets = &bvh.packets[leaf_packets(cur)];
+            if lane_leaf(active, packets.len()) && lanes.is_none() {
+                lanes = Some(LeafLanes::new(rays, group));
+            }
+            match &lanes {
+                Some(Some(l)) if lane_leaf(active, packets.len()) => {
+                    for p in packets {
+                        l.closest(p, rays, active, &mut pr.tmax, out);
+                    }
+                }
+                _ => {
+                    for i in Lanes(active) {
+                        let tr = leaf_rays.get(i);
+                        pr.tmax[i] = avx2::leaf_closest(tr, packets, pr.tmax[i], &mut out[i]);
+                    }
+                }
             }
             tmax = load(&pr.tmax);
         }
@@ -457,6 +473,7 @@ fn closest_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32, out: 
 fn any_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32) -> u32 {
     let mut pr = PacketRay::new(rays, group, oct);
     let mut leaf_rays = LeafRays::new(rays);
+    let mut lanes = None;
     let ray_tmax = pr.tmax;
     let mut tmax = load(&pr.tmax);
     let mut done = 0u32;
@@ -484,11 +501,29 @@ fn any_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32) -> u32 {
                 continue;
             }
         } else {
-            for i in Lanes(active) {
-                let tr = leaf_rays.get(i);
-                if avx2::leaf_any(tr, &bvh.packets[leaf_packets(cur)], ray_tmax[i]) {
-                    done |= 1 << i;
-                    pr.tmax[i] = f32::NEG_INFINITY;
+            let packets = &bvh.packets[leaf_packets(cur)];
+            if lane_leaf(active, packets.len()) && lanes.is_none() {
+                lanes = Some(LeafLanes::new(rays, group));
+            }
+            match &lanes {
+                Some(Some(l)) if lane_leaf(active, packets.len()) => {
+                    let mut hit = 0;
+                    for p in packets {
+                        hit |= l.any(p, rays, active & !hit, &ray_tmax);
+                    }
+                    for i in Lanes(hit) {
+                        pr.tmax[i] = f32::NEG_INFINITY;
+                    }
+                    done |= hit;
+                }
+                _ => {
+                    for i in Lanes(active) {
+                        let tr = leaf_rays.get(i);
+                        if avx2::leaf_any(tr, packets, ray_tmax[i]) {
+                            done |= 1 << i;
+                            pr.tmax[i] = f32::NEG_INFINITY;
+                        }
+                    }
                 }
             }
             if done == group {
@@ -505,6 +540,17 @@ fn any_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32) -> u32 {
             }
         }
     }
+}
+
+/// Whether a leaf of `packets` triangle packets is tested triangle by triangle against the
+/// rays of `active` in lanes ([`LeafLanes`], one 8-ray vector per triangle) rather than ray by
+/// ray (each ray against a leaf's 8 triangles per vector): when the rays outnumber the
+/// triangles' packets twice. Measured (one thread): the Cornell box's shadow rays toward its
+/// light 46.3 → 64.2 Mrays/s, Sponza's sun shadows 20.0 / 20.4 → 21.4 / 21.4, the dragon's
+/// 12.4 / 12.3 → 12.5 / 12.6 (thresholds of 1 and 3 packets per ray within noise of 2).
+#[inline(always)]
+fn lane_leaf(active: u32, packets: usize) -> bool {
+    active.count_ones() >= 2 * packets as u32
 }
 
 #[cfg(test)]
