@@ -13,7 +13,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)] // test code: a failure is the report
 
 use glint_image::ztest::{self, Variances};
-use glint_render::path::{PathKernel, render_path};
+use glint_render::path::render_path;
 use glint_render::{Film, Hooks, ImageSettings, ModeSettings, World};
 use std::path::{Path, PathBuf};
 
@@ -66,7 +66,6 @@ fn render(xml: &Path) -> Result<(glint_image::Image, glint_image::Image, f64), S
     let scene = loaded.scene;
     let mut path = ModeSettings::from_defaults(&scene.render).path;
     path.spp = spp;
-    path.kernel = PathKernel::Recursive;
     let camera = scene.camera;
     let world = World::new(scene);
     let image = ImageSettings::new(w, h);

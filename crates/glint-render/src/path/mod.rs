@@ -84,8 +84,7 @@ pub struct PathSettings {
     /// is sampled at a vertex and its BSDF followed only while the next vertex is within the
     /// budget, as Mitsuba's `path` integrator does, so scenes read from Mitsuba XML render
     /// the same light transport. `None`: glint's own budgets (`max_bounces` after the guide
-    /// vertex, `max_chain` before it). The recursive kernel runs such frames (the wavefront
-    /// kernel keeps glint's budgets).
+    /// vertex, `max_chain` before it). Both kernels keep either budget.
     pub max_depth: Option<u32>,
     /// The film's pixel filter: each sample's position is drawn from it (box: uniform in the
     /// pixel). The first guide ray of a filtered frame still goes through the pixel centre.
@@ -337,7 +336,6 @@ enum Tracer<'a> {
 
 impl<'a> Tracer<'a> {
     fn new(world: &'a World, frame: &'a Frame, kernel: PathKernel) -> Self {
-        let kernel = if frame.params.max_depth.is_some() { PathKernel::Recursive } else { kernel };
         match kernel {
             PathKernel::Wavefront => Tracer::Wavefront {
                 wavefront: Box::new(Wavefront::new(world, frame)),

@@ -70,6 +70,9 @@ struct TailLeg {
     beta: Rgb,
     /// Vertex number (after the guide vertex) of the ray's next hit.
     bounce: u32,
+    /// The last vertex that samples light (the recursive tracer's `max_bounces` argument:
+    /// under Mitsuba's budget it depends on the camera chain's length).
+    max_bounces: u32,
     arrival: Arrival,
 }
 
@@ -238,14 +241,16 @@ impl<'a> Wavefront<'a> {
         } else {
             self.counts.secondary += 1;
         }
+        let params = &self.frame.params;
         let sample = &mut out[slot as usize].1;
         let Some(hit) = hit else {
-            let sky = if leg.chain == 0 {
+            // Mitsuba's budget comes with Mitsuba's point lookups of the sky.
+            let sky = if leg.chain == 0 && params.max_depth.is_none() {
                 self.world.sky().radiance_filtered(path.ray.dir, leg.cone)
             } else {
                 self.world.sky().radiance(path.ray.dir)
             };
-            if leg.chain > 0 || !self.frame.params.hide_emitters {
+            if leg.chain > 0 || !params.hide_emitters {
                 sample.rest += leg.throughput * sky;
             }
             return;
@@ -253,9 +258,17 @@ impl<'a> Wavefront<'a> {
         sample.covered = true;
         leg.depth = if leg.chain == 0 { self.frame.camera.depth(hit.position) } else { leg.depth + hit.t };
         let (bsdf, emission) = bsdf_at(self.world, hit, path.ray.dir);
-        if leg.chain > 0 || !self.frame.params.hide_emitters {
+        if leg.chain > 0 || !params.hide_emitters {
             sample.rest += leg.throughput * emission;
         }
+        // Mitsuba's budget: vertex `chain` samples light and continues only while vertex
+        // `chain + 1` is within `max_depth`; what follows the guide vertex gets the rest.
+        let bounces = match params.max_depth {
+            Some(l) if leg.chain + 1 >= l => return,
+            Some(l) => l - 2 - leg.chain,
+            None => params.max_bounces,
+        };
+        let last_chain = params.max_depth.map_or(params.max_chain, |l| l.saturating_sub(1));
         let mut stream = path.stream;
         let u_lobe = stream.next_1d();
         let u = stream.next_2d();
@@ -264,7 +277,7 @@ impl<'a> Wavefront<'a> {
                 // Through the mirror or the glass, while the chain may grow.
                 let Some(s) = bsdf.sample_delta(u_lobe, u) else { return };
                 leg.throughput *= s.weight;
-                if leg.chain < self.frame.params.max_chain {
+                if leg.chain < last_chain {
                     leg.chain += 1;
                     let ray = hit.spawn_ray(s.wi);
                     self.q.next.push(Path { slot, ray, stream, leg: Leg::Camera(leg) });
@@ -277,12 +290,12 @@ impl<'a> Wavefront<'a> {
         } else {
             true
         };
-        self.guide_vertex(slot, hit, &bsdf, &leg, with_delta, stream, out);
+        self.guide_vertex(slot, hit, &bsdf, &leg, with_delta, bounces, stream, out);
         out[slot as usize].1.guide = Some(GuideGeometry { normal: bsdf.normal, depth: leg.depth });
     }
 
     /// The guide vertex: its direct light (queued), its indirect path and, when it follows
-    /// them, its delta lobes (new tails).
+    /// them, its delta lobes (new tails, whose last light-sampling vertex is `bounces`).
     #[allow(clippy::too_many_arguments)]
     fn guide_vertex(
         &mut self,
@@ -291,6 +304,7 @@ impl<'a> Wavefront<'a> {
         bsdf: &Bsdf,
         leg: &CameraLeg,
         with_delta: bool,
+        bounces: u32,
         mut stream: SampleStream,
         out: &mut [(Vec2, CameraSample)],
     ) {
@@ -298,16 +312,22 @@ impl<'a> Wavefront<'a> {
         out[slot as usize].1.albedo = albedo;
         let throughput = leg.throughput;
         let base = stream;
+        let params = &self.frame.params;
         if bsdf.has_non_delta() {
             let trace = leg.mode == IndirectMode::Trace;
-            self.light_samples(hit, bsdf, &mut stream, None, Dest::Guide { slot, throughput, albedo, trace });
-            if self.frame.params.max_bounces > 0 {
+            // Mitsuba's budget: the direct light weighed against the BSDF sample below (whose
+            // density is the non-delta part's alone), as its path integrator weighs them.
+            let mitsuba = params.max_depth.is_some() && !params.filtered;
+            let mis = mitsuba.then(|| 1.0 / bsdf.p_non_delta().max(1e-12));
+            self.light_samples(hit, bsdf, &mut stream, mis, Dest::Guide { slot, throughput, albedo, trace });
+            if bounces > 0 || mitsuba && trace {
                 let u_lobe = stream.next_1d();
                 let u = stream.next_2d();
                 match leg.mode {
                     IndirectMode::Trace => {
                         if let Some(s) = bsdf.sample_non_delta(u_lobe, u) {
-                            let arrival = Arrival { pdf: s.pdf, delta: false, after_guide: true, from: hit.position };
+                            let arrival =
+                                Arrival { pdf: s.pdf, delta: false, after_guide: !mitsuba, from: hit.position };
                             let tail = Tail {
                                 slot,
                                 li: Rgb::ZERO,
@@ -315,7 +335,7 @@ impl<'a> Wavefront<'a> {
                                 to_rest: throughput * (bsdf.eval_glossy_cos(s.wi) / s.pdf),
                                 to_indirect: bsdf.diffuse_shape(s.wi) / s.pdf,
                             };
-                            self.start_tail(tail, hit.spawn_ray(s.wi), stream, 1, arrival);
+                            self.start_tail(tail, hit.spawn_ray(s.wi), stream, (1, bounces), arrival);
                         }
                     }
                     IndirectMode::Lookup => {
@@ -324,27 +344,32 @@ impl<'a> Wavefront<'a> {
                                 Arrival { pdf: bsdf.pdf(wi), delta: false, after_guide: true, from: hit.position };
                             let tail =
                                 Tail { slot, li: Rgb::ZERO, clamp: true, to_rest: throughput * w, to_indirect: 0.0 };
-                            self.start_tail(tail, hit.spawn_ray(wi), stream, 1, arrival);
+                            self.start_tail(tail, hit.spawn_ray(wi), stream, (1, bounces), arrival);
                         }
                     }
                 }
             }
         }
         if with_delta {
+            // glint's budget does not count delta bounces; Mitsuba's does.
+            let first = u32::from(params.max_depth.is_some());
             for (k, lobe) in bsdf.delta_lobes().into_iter().enumerate() {
                 let Some((dir, weight)) = lobe else { continue };
                 let arrival = Arrival { pdf: 0.0, delta: true, after_guide: false, from: hit.position };
                 let tail = Tail { slot, li: Rgb::ZERO, clamp: false, to_rest: throughput * weight, to_indirect: 0.0 };
                 let lobe_stream = base.at_dimension(LOBE_DIMENSIONS * (k as u64 + 1));
-                self.start_tail(tail, hit.spawn_ray(dir), lobe_stream, 0, arrival);
+                self.start_tail(tail, hit.spawn_ray(dir), lobe_stream, (first, bounces), arrival);
             }
         }
     }
 
-    fn start_tail(&mut self, tail: Tail, ray: Ray, stream: SampleStream, bounce: u32, arrival: Arrival) {
+    /// A new path behind a guide vertex; `bounces`: the vertex number of its first hit and its
+    /// last light-sampling vertex.
+    fn start_tail(&mut self, tail: Tail, ray: Ray, stream: SampleStream, bounces: (u32, u32), arrival: Arrival) {
         let id = self.q.tails.len() as u32;
         self.q.tails.push(tail);
-        let leg = TailLeg { tail: id, beta: Rgb::ONE, bounce, arrival };
+        let (bounce, max_bounces) = bounces;
+        let leg = TailLeg { tail: id, beta: Rgb::ONE, bounce, max_bounces, arrival };
         self.q.next.push(Path { slot: tail.slot, ray, stream, leg: Leg::Tail(leg) });
     }
 
@@ -367,9 +392,12 @@ impl<'a> Wavefront<'a> {
             self.q.tails[leg.tail as usize].li += leg.beta * emission * weight;
         }
         let mut stream = path.stream;
-        if bsdf.has_non_delta() {
+        // Mitsuba's budget follows the last light-sampling vertex's BSDF one more segment, for
+        // the emission it finds (MIS-weighted); glint's does not trace it.
+        let mitsuba = params.max_depth.is_some();
+        if bsdf.has_non_delta() && leg.bounce <= leg.max_bounces {
             // MIS against BSDF sampling, except at the last vertex (its BSDF ray is not traced).
-            let mis = leg.bounce < params.max_bounces;
+            let mis = leg.bounce < leg.max_bounces || mitsuba;
             self.light_samples(
                 hit,
                 &bsdf,
@@ -378,7 +406,7 @@ impl<'a> Wavefront<'a> {
                 Dest::Tail { tail: leg.tail, beta: leg.beta },
             );
         }
-        if leg.bounce >= params.max_bounces {
+        if leg.bounce >= leg.max_bounces + u32::from(mitsuba) {
             self.q.ended.push(leg.tail);
             return;
         }
