@@ -441,8 +441,28 @@ pub struct PathArgs {
     /// and directional lights always stay sharp).
     #[arg(long = "paper-split")]
     pub paper_split: bool,
+    /// Path mode: how camera samples draw their random numbers. sobol: stratified across a
+    /// pixel's samples (lower error at the same spp); independent: Mitsuba's `independent`
+    /// sampler. Default: the scene's (`[render] sampler`; sobol).
+    #[arg(long, value_enum)]
+    pub sampler: Option<SamplerArg>,
     #[command(flatten)]
     pub filter_options: FilterOptions,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SamplerArg {
+    Sobol,
+    Independent,
+}
+
+impl From<SamplerArg> for glint_core::random::Sampler {
+    fn from(s: SamplerArg) -> Self {
+        match s {
+            SamplerArg::Sobol => glint_core::random::Sampler::Sobol,
+            SamplerArg::Independent => glint_core::random::Sampler::Independent,
+        }
+    }
 }
 
 /// Arguments of `glint filter`.
@@ -585,6 +605,9 @@ pub struct BenchPathArgs {
     /// interleaved; the last line is the first kernel's.
     #[arg(long, value_delimiter = ',', value_enum, default_value = "wavefront")]
     pub kernel: Vec<PathKernelArg>,
+    /// How camera samples draw their random numbers; default: the scene's.
+    #[arg(long, value_enum)]
+    pub sampler: Option<SamplerArg>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

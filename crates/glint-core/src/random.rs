@@ -25,25 +25,118 @@ pub fn unit_float(h: u64) -> f32 {
     (h >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
 }
 
-/// The random stream of one sample of one pixel: dimension `d` of it is
-/// `unit_float(hash4(pixel, sample, d, seed))`. Consecutive calls take consecutive dimensions.
+/// The random stream of one sample of one pixel. Consecutive calls take consecutive
+/// dimensions (a 2-D draw takes two).
+///
+/// Two kinds:
+/// - [`SampleStream::new`], independent: dimension `d` is `unit_float(hash4(pixel, sample, d,
+///   seed))`;
+/// - [`SampleStream::sobol`], low discrepancy: the first [`SOBOL_DIMENSIONS`] dimensions of a
+///   pixel's samples are a padded, shuffled, Owen-scrambled Sobol sequence (Burley, "Practical
+///   Hash-based Owen Scrambling", JCGT 2020), the rest independent as above. Every draw (a 1-D
+///   or a 2-D one) starting at dimension `d` takes the `sample`-th point of its own
+///   scrambled (0,2)-sequence: the first two Sobol dimensions, the sample index shuffled and
+///   the coordinates scrambled by seeds hashed from `(pixel, d, seed)`. So the samples of one
+///   pixel are stratified in every draw (each prefix of 2^m samples is a (0,m,2)-net: one
+///   point in each of 2^m elementary intervals), draws are decorrelated from one another,
+///   and pixels are independent of each other. Still a pure function of (pixel, sample,
+///   dimension, seed): no thread count or visiting order changes a number.
 #[derive(Clone, Copy, Debug)]
 pub struct SampleStream {
     base: u64,
     dimension: u64,
+    /// Per-pixel seed of the scrambles (0 for an independent stream, see `sobol`).
+    scramble: u64,
+    /// The sample index, bits reversed (the shuffle scrambles it in that order).
+    index_reversed: u32,
+    sobol: bool,
 }
+
+/// How a render draws its camera samples' random numbers.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Sampler {
+    /// Low discrepancy ([`SampleStream::sobol`]): a pixel's samples are stratified, which lowers
+    /// the error of a mean of N samples well below the independent `variance / N`.
+    #[default]
+    Sobol,
+    /// Independent numbers ([`SampleStream::new`]): Mitsuba's `independent` sampler, and what
+    /// a per-sample variance estimate of the error of a pixel's mean assumes.
+    Independent,
+}
+
+impl Sampler {
+    /// The stream of sample `sample` of pixel `pixel`.
+    #[inline]
+    #[must_use]
+    pub fn stream(self, pixel: u64, sample: u64, seed: u64) -> SampleStream {
+        match self {
+            Sampler::Sobol => SampleStream::sobol(pixel, sample, seed),
+            Sampler::Independent => SampleStream::new(pixel, sample, seed),
+        }
+    }
+
+    /// The name the scene format and the command line use.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Sampler::Sobol => "sobol",
+            Sampler::Independent => "independent",
+        }
+    }
+}
+
+/// Dimensions of a [`SampleStream::sobol`] stream that are low discrepancy: the camera's
+/// pixel and lens samples and the first few vertices' light, lobe and direction choices (a
+/// few dimensions per vertex). Later ones are independent: past a few bounces stratification
+/// gains little and the scrambles cost a few nanoseconds a draw.
+pub const SOBOL_DIMENSIONS: u64 = 16;
 
 impl SampleStream {
     pub fn new(pixel: u64, sample: u64, seed: u64) -> Self {
         let h = mix64(seed ^ 0x9e37_79b9_7f4a_7c15);
         let h = mix64(h ^ pixel);
         let base = mix64(h ^ sample.wrapping_mul(0x2545_f491_4f6c_dd1d));
-        Self { base, dimension: 0 }
+        Self { base, dimension: 0, scramble: 0, index_reversed: 0, sobol: false }
+    }
+
+    /// A low-discrepancy stream (see the type's documentation); dimensions from
+    /// [`SOBOL_DIMENSIONS`] on are those of [`SampleStream::new`]`(pixel, sample, seed)`.
+    pub fn sobol(pixel: u64, sample: u64, seed: u64) -> Self {
+        let scramble = mix64(mix64(seed ^ 0x5851_f42d_4c95_7f2d) ^ pixel);
+        Self { scramble, index_reversed: (sample as u32).reverse_bits(), sobol: true, ..Self::new(pixel, sample, seed) }
+    }
+
+    /// The seeds of the draw at the current dimension: the index shuffle's, then one per
+    /// coordinate (the third a multiplicative hash of the 64-bit one: no second mix).
+    #[inline]
+    fn draw_seeds(&self) -> (u32, u32, u32) {
+        // The per-pixel seed is mixed already: one multiply spreads the dimension over it.
+        let h = (self.scramble ^ self.dimension).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        (h as u32 ^ (h >> 29) as u32, (h >> 32) as u32, (h.wrapping_mul(0xd1b5_4a32_d192_ed03) >> 32) as u32)
+    }
+
+    /// The shuffled sample index of the draw, bits reversed (`j` below): Owen's scramble of
+    /// the index (`nested_uniform_scramble(index, seed)` is `j.reverse_bits()`).
+    #[inline]
+    fn shuffled_reversed(&self, seed: u32) -> u32 {
+        lk_permutation(self.index_reversed, seed)
+    }
+
+    #[inline]
+    fn ld(&self) -> bool {
+        self.sobol && self.dimension < SOBOL_DIMENSIONS
     }
 
     /// The next uniform float in [0, 1).
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
+        if self.ld() {
+            let (shuffle, sx, _) = self.draw_seeds();
+            self.dimension += 1;
+            // Sobol's first dimension is the reversed index, `j` itself.
+            let j = self.shuffled_reversed(shuffle);
+            return unit_float32(nested_uniform_scramble(j, sx));
+        }
         let h = mix64(self.base ^ self.dimension.wrapping_mul(0x9e37_79b9_7f4a_7c15));
         self.dimension += 1;
         unit_float(h)
@@ -51,6 +144,17 @@ impl SampleStream {
 
     #[inline]
     pub fn next_2d(&mut self) -> glam::Vec2 {
+        if self.ld() {
+            let (shuffle, sx, sy) = self.draw_seeds();
+            self.dimension += 2;
+            let j = self.shuffled_reversed(shuffle);
+            // Scrambles in the reversed domain (`nested_uniform_scramble(v, s)` is
+            // `lk_permutation(v.reverse_bits(), s).reverse_bits()`): Sobol's first coordinate
+            // reversed is the shuffled index itself, its second reversed is a table of `j`.
+            let x = lk_permutation(j.reverse_bits(), sx).reverse_bits();
+            let y = lk_permutation(sobol_second_reversed(j), sy).reverse_bits();
+            return glam::Vec2::new(unit_float32(x), unit_float32(y));
+        }
         let a = self.next_1d();
         glam::Vec2::new(a, self.next_1d())
     }
@@ -61,6 +165,78 @@ impl SampleStream {
         self
     }
 }
+
+/// A uniform float in [0, 1) from the top 24 bits of a 32-bit value.
+#[inline]
+fn unit_float32(x: u32) -> f32 {
+    (x >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+}
+
+/// A random permutation of 32-bit values in which a bit depends only on the bits below it
+/// (Laine and Karras's observation, "Stratified sampling for stochastic transparency", 2011;
+/// the constants of Vegdahl's improved hash, 2021, after Burley 2020). Applied to reversed
+/// bits it is an Owen scramble: each bit of the result is flipped by a hash of the bits above
+/// it.
+#[inline]
+fn lk_permutation(mut x: u32, seed: u32) -> u32 {
+    x ^= x.wrapping_mul(0x3d20_adea);
+    x = x.wrapping_add(seed);
+    x = x.wrapping_mul((seed >> 16) | 1);
+    x ^= x.wrapping_mul(0x0552_6c56);
+    x ^= x.wrapping_mul(0x53a2_2864);
+    x
+}
+
+/// Owen's nested uniform scramble of a 32-bit fraction (Burley 2020, section 3).
+#[inline]
+fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
+    lk_permutation(x.reverse_bits(), seed).reverse_bits()
+}
+
+/// Sobol's second dimension in the reversed domain: `sobol_second(j.reverse_bits())
+/// .reverse_bits()`, where `sobol_second` is the sequence's second dimension (primitive
+/// polynomial `x + 1`: direction numbers `v_0 = 2^31`, `v_k = v_{k-1} ^ (v_{k-1} >> 1)`). The
+/// generator matrix is linear over GF(2), so is this: one table lookup per byte of `j`.
+#[inline]
+fn sobol_second_reversed(j: u32) -> u32 {
+    let b = j.to_le_bytes();
+    SOBOL_SECOND_REVERSED[0][b[0] as usize]
+        ^ SOBOL_SECOND_REVERSED[1][b[1] as usize]
+        ^ SOBOL_SECOND_REVERSED[2][b[2] as usize]
+        ^ SOBOL_SECOND_REVERSED[3][b[3] as usize]
+}
+
+/// `SOBOL_SECOND_REVERSED[k][b]`: the reversed image of byte value `b` at byte `k` of `j`:
+/// bit `m` of `j` is bit `31 - m` of the index, whose direction number `v_{31-m}` is stored
+/// reversed.
+static SOBOL_SECOND_REVERSED: [[u32; 256]; 4] = {
+    let mut v = [0u32; 32];
+    v[0] = 1 << 31;
+    let mut i = 1;
+    while i < 32 {
+        v[i] = v[i - 1] ^ (v[i - 1] >> 1);
+        i += 1;
+    }
+    let mut t = [[0u32; 256]; 4];
+    let mut k = 0;
+    while k < 4 {
+        let mut b = 0;
+        while b < 256 {
+            let mut x = 0u32;
+            let mut m = 0;
+            while m < 8 {
+                if b >> m & 1 == 1 {
+                    x ^= v[31 - (8 * k + m)].reverse_bits();
+                }
+                m += 1;
+            }
+            t[k][b] = x;
+            b += 1;
+        }
+        k += 1;
+    }
+    t
+};
 
 #[cfg(test)]
 mod tests {
@@ -86,5 +262,119 @@ mod tests {
         for b in buckets {
             assert!((b as f64 - 10_000.0).abs() < 500.0, "{buckets:?}");
         }
+    }
+
+    /// Sobol's second dimension by its definition: the xor of the direction numbers of the
+    /// index's set bits.
+    fn sobol_second_by_bits(index: u32) -> u32 {
+        let (mut x, mut v) = (0u32, 1u32 << 31);
+        for bit in 0..32 {
+            if index >> bit & 1 == 1 {
+                x ^= v;
+            }
+            v ^= v >> 1;
+        }
+        x
+    }
+
+    #[test]
+    fn the_reversed_table_is_sobols_second_dimension_reversed() {
+        let mut h = 1u64;
+        for k in 0..20_000u32 {
+            h = mix64(h);
+            let j = if k < 4096 { k } else { h as u32 };
+            assert_eq!(sobol_second_reversed(j), sobol_second_by_bits(j.reverse_bits()).reverse_bits(), "j = {j:#x}");
+        }
+        // The unscrambled sequence's first points (index order): 0, 1/2, 3/4, 1/4, 5/8.
+        let first: Vec<u32> = (0..5).map(|i| sobol_second_by_bits(i) >> 29).collect();
+        assert_eq!(first, [0, 4, 6, 2, 5]);
+    }
+
+    /// Cells of the `2^a × 2^b` grid each point of `points` falls in, as counts.
+    fn cell_counts(points: &[(f32, f32)], a: u32, b: u32) -> Vec<u32> {
+        let (nx, ny) = (1usize << a, 1usize << b);
+        let mut cells = vec![0u32; nx * ny];
+        for &(x, y) in points {
+            assert!((0.0..1.0).contains(&x) && (0.0..1.0).contains(&y), "({x}, {y})");
+            cells[(y * ny as f32) as usize * nx + (x * nx as f32) as usize] += 1;
+        }
+        cells
+    }
+
+    #[test]
+    fn a_pixels_first_2_to_the_m_samples_are_a_02_net_in_every_low_dimension() {
+        for (pixel, seed) in [(0u64, 0u64), (17, 3), (123_456, 99)] {
+            for d in [0u64, 2, 5, 9, 14] {
+                let draw = |s: u64| {
+                    let v = SampleStream::sobol(pixel, s, seed).at_dimension(d).next_2d();
+                    (v.x, v.y)
+                };
+                for m in 1..=8u32 {
+                    let points: Vec<(f32, f32)> = (0..1u64 << m).map(draw).collect();
+                    // Every elementary interval of area 2^-m holds exactly one point.
+                    for a in 0..=m {
+                        let cells = cell_counts(&points, a, m - a);
+                        assert!(cells.iter().all(|&c| c == 1), "pixel {pixel} dim {d} m {m} grid 2^{a}x2^{}", m - a);
+                    }
+                    // And in 1-D draws, one point in each interval of length 2^-m.
+                    let mut seen = vec![false; 1 << m];
+                    for s in 0..1u64 << m {
+                        let u = SampleStream::sobol(pixel, s, seed).at_dimension(d).next_1d();
+                        let cell = (u * (1u32 << m) as f32) as usize;
+                        assert!(!seen[cell], "pixel {pixel} dim {d} m {m}: two 1-D points in interval {cell}");
+                        seen[cell] = true;
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn different_draws_of_a_pixel_are_not_correlated() {
+        // Padded Sobol without the index shuffle would give every draw the same points in the
+        // same order (a correlation of 1 between draws after a scramble's monotone parts).
+        let n = 1024u64;
+        for (d1, d2) in [(0u64, 2u64), (2, 3), (5, 11), (0, 14)] {
+            let pairs: Vec<(f32, f32)> = (0..n)
+                .map(|s| {
+                    let mut st = SampleStream::sobol(7, s, 1).at_dimension(d1);
+                    let a = st.next_1d();
+                    (a, SampleStream::sobol(7, s, 1).at_dimension(d2).next_1d())
+                })
+                .collect();
+            let mean = |f: &dyn Fn(&(f32, f32)) -> f64| pairs.iter().map(f).sum::<f64>() / n as f64;
+            let (mx, my) = (mean(&|p| f64::from(p.0)), mean(&|p| f64::from(p.1)));
+            let cov = mean(&|p| (f64::from(p.0) - mx) * (f64::from(p.1) - my));
+            let r = cov / (1.0 / 12.0);
+            assert!(r.abs() < 0.12, "dims {d1} and {d2}: correlation {r}");
+            // The pairs spread over the square: most of a 16 × 16 grid's cells are met (a
+            // random pairing of two stratified sets meets ~98 %).
+            let met = cell_counts(&pairs, 4, 4).iter().filter(|&&c| c > 0).count();
+            assert!(met > 230, "dims {d1} and {d2}: {met} of 256 cells");
+        }
+    }
+
+    #[test]
+    fn pixels_are_independent_and_later_dimensions_are_the_independent_streams() {
+        // Sample 0 of many pixels: uniform, as independent draws are.
+        let mut buckets = [0u32; 10];
+        for pixel in 0..50_000u64 {
+            let u = SampleStream::sobol(pixel, 0, 5).at_dimension(3).next_1d();
+            buckets[(u * 10.0) as usize] += 1;
+        }
+        for b in buckets {
+            assert!((f64::from(b) - 5_000.0).abs() < 350.0, "{buckets:?}");
+        }
+        for d in SOBOL_DIMENSIONS..SOBOL_DIMENSIONS + 8 {
+            let a = SampleStream::sobol(11, 6, 2).at_dimension(d).next_2d();
+            let b = SampleStream::new(11, 6, 2).at_dimension(d).next_2d();
+            assert_eq!(a, b, "dimension {d}");
+        }
+        // The seed changes the scrambles.
+        let a = SampleStream::sobol(11, 6, 2).next_2d();
+        let b = SampleStream::sobol(11, 6, 3).next_2d();
+        assert_ne!(a, b);
+        assert_eq!(Sampler::Independent.stream(4, 5, 6).next_1d(), SampleStream::new(4, 5, 6).next_1d());
+        assert_eq!(Sampler::Sobol.stream(4, 5, 6).next_1d(), SampleStream::sobol(4, 5, 6).next_1d());
     }
 }

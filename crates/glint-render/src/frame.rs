@@ -72,6 +72,7 @@ impl ModeSettings {
                 rr_start: d.rr_depth.unwrap_or(PathSettings::default().rr_start),
                 pixel_filter: d.pixel_filter,
                 hide_emitters: d.hide_emitters,
+                sampler: d.sampler,
                 ..PathSettings::default()
             },
             points: PointSettings::default(),

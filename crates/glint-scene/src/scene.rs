@@ -38,6 +38,9 @@ pub struct RenderDefaults {
     /// Path mode: emitters and the sky seen directly by the camera are left out (Mitsuba's
     /// `hide_emitters`); seen in mirrors and glass, and as light, they stay.
     pub hide_emitters: bool,
+    /// Path mode: how camera samples draw their random numbers (`[render] sampler`; Mitsuba's
+    /// `independent` sampler stays independent, its stratified ones become Sobol).
+    pub sampler: glint_core::random::Sampler,
     /// Render only this window of the `width × height` film: x0, y0, width, height in pixels
     /// (Mitsuba's film crop; `glint render --crop` overrides it). None: the whole film.
     pub crop: Option<[u32; 4]>,
@@ -81,6 +84,7 @@ impl Default for RenderDefaults {
             image_filter: true,
             pixel_filter: glint_core::PixelFilter::Box,
             hide_emitters: false,
+            sampler: glint_core::random::Sampler::Sobol,
             crop: None,
         }
     }

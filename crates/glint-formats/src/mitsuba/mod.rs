@@ -52,6 +52,9 @@ pub struct MitsubaScene {
 pub struct MitsubaSettings {
     /// The sampler's `sample_count`; None when the scene has no sampler (Mitsuba uses 4).
     pub spp: Option<u32>,
+    /// `independent` stays independent (Mitsuba's default); its stratified samplers
+    /// (`stratified`, `multijitter`, `ldsampler`, `orthogonal`) become glint's Sobol sampler.
+    pub sampler: glint_core::random::Sampler,
     pub integrator: MitsubaIntegrator,
     /// The film's full size (Mitsuba's default 768 × 576).
     pub width: u32,
@@ -68,6 +71,7 @@ impl Default for MitsubaSettings {
     fn default() -> Self {
         MitsubaSettings {
             spp: None,
+            sampler: glint_core::random::Sampler::Independent,
             integrator: MitsubaIntegrator::Path { max_depth: None, rr_depth: 5, hide_emitters: false },
             width: 768,
             height: 576,
@@ -135,6 +139,7 @@ pub fn load(path: &Path, defines: &[(String, String)], lenient: bool) -> Result<
 fn apply_integrator(render: &mut glint_scene::RenderDefaults, settings: &MitsubaSettings) {
     use glint_scene::limits;
     render.spp = settings.spp;
+    render.sampler = settings.sampler;
     render.image_filter = false;
     render.pixel_filter = settings.filter;
     render.crop = settings.crop;

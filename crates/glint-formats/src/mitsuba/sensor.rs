@@ -17,6 +17,7 @@ use super::{Builder, MitsubaIntegrator, PixelFilter};
 use crate::error::FormatError;
 use glint_core::Vec3;
 use glint_core::glam::{DMat4, DVec3};
+use glint_core::random::Sampler;
 use glint_scene::{Camera, Fov, Lens, ViewSize, limits::image_size_ok};
 
 const SAMPLERS: [&str; 5] = ["independent", "stratified", "multijitter", "ldsampler", "orthogonal"];
@@ -91,6 +92,10 @@ impl<'a> Builder<'a> {
                 )?;
             }
             self.settings.spp = Some(s.count("sample_count", 4)?);
+            self.settings.sampler = match s.plugin {
+                "independent" => Sampler::Independent,
+                _ => Sampler::Sobol,
+            };
             s.ignore(&["seed", "jitter", "strength", "scramble", "dimension"]);
             self.finish(&s)?;
         }

@@ -466,6 +466,25 @@ fn a_checkerboard_read_as_a_float_has_mitsubas_other_parity() {
 }
 
 #[test]
+fn independent_samplers_stay_independent_and_stratified_ones_become_sobol() {
+    use glint_core::random::Sampler;
+    let dir = TempDir::new("mitsuba-sampler");
+    let path = dir.join("s.xml");
+    for (sampler, want) in [
+        ("", Sampler::Independent),
+        (r#"<sampler type="independent"><integer name="sample_count" value="8"/></sampler>"#, Sampler::Independent),
+        (r#"<sampler type="ldsampler"/>"#, Sampler::Sobol),
+        (r#"<sampler type="multijitter"/>"#, Sampler::Sobol),
+    ] {
+        let xml = format!(
+            r#"<scene version="3.0.0"><sensor type="perspective"><film type="hdrfilm"/>{sampler}</sensor><shape type="sphere"/></scene>"#
+        );
+        std::fs::write(&path, xml).expect("write");
+        assert_eq!(load(&path, &[], false).expect("loads").scene.render.sampler, want, "{sampler}");
+    }
+}
+
+#[test]
 fn hide_emitters_and_the_film_filter_reach_the_render_defaults() {
     let dir = TempDir::new("mitsuba-hide");
     let path = dir.join("s.xml");

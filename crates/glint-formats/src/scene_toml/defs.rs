@@ -45,6 +45,7 @@ pub(crate) struct RenderDef {
     pub min_contribution: Option<Spanned<Num>>,
     pub mode: Option<Spanned<String>>,
     pub max_bounces: Option<Spanned<u32>>,
+    pub sampler: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize, Debug)]

@@ -8,6 +8,7 @@
 use super::Builder;
 use super::defs::SceneDef;
 use crate::error::FormatError;
+use glint_core::random::Sampler;
 use glint_scene::limits::{self, MAX_IMAGE_SIDE};
 use glint_scene::{RenderDefaults, RenderMode};
 use std::ops::RangeInclusive;
@@ -49,6 +50,15 @@ impl Builder<'_> {
             }
             if let Some(b) = &render.max_bounces {
                 r.max_bounces = self.within(b, "max_bounces", &limits::MAX_BOUNCES, "")?;
+            }
+            if let Some(s) = &render.sampler {
+                r.sampler = match s.get_ref().as_str() {
+                    "sobol" => Sampler::Sobol,
+                    "independent" => Sampler::Independent,
+                    other => {
+                        return Err(self.err(&s.span(), format!("sampler {other:?}: use \"sobol\" or \"independent\"")));
+                    }
+                };
             }
         }
         Ok(r)

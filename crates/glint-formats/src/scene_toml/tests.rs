@@ -296,6 +296,18 @@ fn render_mode_and_bounces_are_read_and_checked() {
 }
 
 #[test]
+fn the_sampler_is_read_and_checked() {
+    use glint_core::random::Sampler;
+    let load = |text: &str| load_scene_str(text, Path::new("."), "t.toml").expect("valid").scene.render.sampler;
+    assert_eq!(load(BASE), Sampler::Sobol);
+    assert_eq!(load(&format!("[render]\nsampler = \"independent\"\n{BASE}")), Sampler::Independent);
+    assert_eq!(load(&format!("[render]\nsampler = \"sobol\"\n{BASE}")), Sampler::Sobol);
+    let e = error(&format!("[render]\nmode = \"path\"\nsampler = \"halton\"\n{BASE}"));
+    assert_at(&e, 3);
+    assert!(e.to_string().contains("halton") && e.to_string().contains("independent"), "{e}");
+}
+
+#[test]
 fn malformed_toml_is_a_syntax_error_with_position() {
     let text = BASE.replace("radius = 1", "radius = = 1");
     let e = error(&text);

@@ -34,7 +34,7 @@ use crate::settings::{ImageSettings, Region};
 use crate::stats::{BandStats, FrameStats};
 use crate::world::SurfaceHit;
 use crate::{RenderError, World};
-use glint_core::random::SampleStream;
+use glint_core::random::{SampleStream, Sampler};
 use glint_core::{PixelFilter, PixelSampler, Ray, Rgb, Vec2, Vec3};
 use glint_filter::Filter;
 use glint_scene::{Camera, limits};
@@ -92,6 +92,10 @@ pub struct PathSettings {
     /// Emitters and the sky seen directly from the camera add nothing (Mitsuba's
     /// `hide_emitters`); after a bounce, mirror and glass ones included, they are seen.
     pub hide_emitters: bool,
+    /// How the camera samples draw their random numbers: stratified across a pixel's samples
+    /// (Sobol, the default) or independent (Mitsuba's `independent` sampler; what a Variance
+    /// AOV's `variance / N` as the error of a pixel's mean assumes).
+    pub sampler: Sampler,
 }
 
 /// How the path tracer runs its samples (the same estimator either way; BENCHMARKS.md §6
@@ -122,6 +126,7 @@ impl Default for PathSettings {
             max_depth: None,
             pixel_filter: PixelFilter::Box,
             hide_emitters: false,
+            sampler: Sampler::Sobol,
         }
     }
 }
@@ -237,6 +242,7 @@ struct Frame {
     width: usize,
     /// Draws sample positions from the film's pixel filter.
     pixel: PixelSampler,
+    sampler: Sampler,
     /// The image's place in its film (pixel ids and camera positions are the film's).
     image: ImageSettings,
     /// The sample asked to go through the pixel centre does: always with a box filter, and
@@ -268,6 +274,7 @@ impl Frame {
             forward: view.forward.normalize(),
             width: image.width as usize,
             pixel: PixelSampler::new(path.pixel_filter),
+            sampler: path.sampler,
             image: *image,
             centre_first: path.filtered() || path.pixel_filter == PixelFilter::Box,
         }
@@ -293,8 +300,11 @@ impl Frame {
     /// stream after the jitter (see [`Frame::sample`]).
     #[inline]
     fn camera_ray(&self, x: usize, y: usize, sample: u64, centre: bool) -> (Vec2, Ray, SampleStream) {
-        let mut stream = SampleStream::new(self.image.pixel_id(x, y), sample, self.seed);
-        let offset = if centre && self.centre_first { Vec2::splat(0.5) } else { self.pixel.position(stream.next_2d()) };
+        let mut stream = self.sampler.stream(self.image.pixel_id(x, y), sample, self.seed);
+        // The pixel sample is drawn even for the centre ray, so that every sample reads the
+        // same dimensions for the same purpose (stratified across the pixel's samples).
+        let jitter = stream.next_2d();
+        let offset = if centre && self.centre_first { Vec2::splat(0.5) } else { self.pixel.position(jitter) };
         let pos = Vec2::new(x as f32, y as f32) + offset;
         let on_film = match self.image.film_origin() {
             (0, 0) => pos,
