@@ -133,6 +133,29 @@ impl Bsdf {
         }
     }
 
+    /// A Lambertian surface of reflectance `diffuse` with shading normal `normal` (on the
+    /// viewer's side), reflecting toward every `wi` above it: `shading::lambertian_at`'s
+    /// reading of Mitsuba's `diffuse`, which checks the shading frame alone (so the geometric
+    /// normal is taken to be the shading one).
+    pub fn lambertian(diffuse: Rgb, normal: Vec3) -> Bsdf {
+        let p_diffuse = if diffuse.max_element() > 0.0 { 1.0 } else { 0.0 };
+        Bsdf {
+            normal,
+            geometric: normal,
+            diffuse,
+            glossy: 0.0,
+            exponent: 0.0,
+            mirror: Rgb::ZERO,
+            transmit: Rgb::ZERO,
+            refracted: None,
+            mirror_dir: Vec3::ZERO,
+            p_diffuse,
+            p_glossy: 0.0,
+            p_mirror: 0.0,
+            physical: None,
+        }
+    }
+
     /// A physically based model at a hit whose geometric normal (on the viewer's side) is `ng`.
     pub fn physical(p: Physical, ng: Vec3) -> Bsdf {
         Bsdf {

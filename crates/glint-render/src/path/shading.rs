@@ -35,6 +35,40 @@ pub struct Physical {
     wo: Vec3,
 }
 
+/// A material tree that is Mitsuba's `diffuse` alone (or `twosided` over two of them), with no
+/// normal or bump map, read without the general model's machinery (shading frame from the
+/// uv derivatives, mixture, ~400 bytes of state): its reflectance toward the viewer — zero
+/// from behind a one-sided `diffuse`, as Mitsuba's — and the shading normal on the viewer's
+/// side (the frame's `z` as [`Physical::normal`] gives it). `None` for any other tree.
+///
+/// The Lambertian lobe it stands for is the general model's `Model::Diffuse` value for value:
+/// `ρ/π` for `wi` above the shading frame, cosine-weighted sampling (around another tangent
+/// frame: the same density, other directions for the same random numbers).
+pub fn lambertian_at(world: &World, hit: &SurfaceHit, dir: Vec3, root: usize) -> Option<(Rgb, Vec3)> {
+    let bsdfs = &world.scene().bsdfs;
+    let n = hit.shading_normal;
+    let cos_o = -n.dot(dir);
+    let reflectance = |t: &Tex<Rgb>| match *t {
+        Tex::Value(v) => v,
+        Tex::Texture(i) => world.texture_at(i, hit),
+    };
+    let toward = if cos_o < 0.0 { -n } else { n };
+    match bsdfs.get(root)? {
+        BsdfKind::Diffuse { reflectance: r } => Some((if cos_o > 0.0 { reflectance(r) } else { Rgb::ZERO }, toward)),
+        BsdfKind::TwoSided { front, back } => {
+            // Seen from behind: the back's model in the mirrored frame (as `Reader::read`).
+            let (side, cos) = if cos_o < 0.0 { (*back, -cos_o) } else { (*front, cos_o) };
+            match bsdfs.get(side)? {
+                BsdfKind::Diffuse { reflectance: r } => {
+                    Some((if cos > 0.0 { reflectance(r) } else { Rgb::ZERO }, toward))
+                }
+                _ => None,
+            }
+        }
+        _ => None,
+    }
+}
+
 impl Physical {
     /// The material tree `root` of `world`'s scene at `hit`, seen along `dir` (the ray's
     /// direction). `None` when the tree has more terms than a [`Mixture`] holds.
