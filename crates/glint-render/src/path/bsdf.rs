@@ -158,21 +158,9 @@ impl Bsdf {
 
     /// A physically based model at a hit whose geometric normal (on the viewer's side) is `ng`.
     pub fn physical(p: Physical, ng: Vec3) -> Bsdf {
-        Bsdf {
-            normal: p.normal(),
-            geometric: ng,
-            diffuse: p.diffuse_albedo(),
-            glossy: 0.0,
-            exponent: 0.0,
-            mirror: Rgb::ZERO,
-            transmit: Rgb::ZERO,
-            refracted: None,
-            mirror_dir: Vec3::ZERO,
-            p_diffuse: 0.0,
-            p_glossy: 0.0,
-            p_mirror: 0.0,
-            physical: Some(p),
-        }
+        let base = Bsdf::lambertian(p.diffuse_albedo(), p.normal());
+        // The model answers every query: the Phong reading's choice probabilities stay zero.
+        Bsdf { geometric: ng, p_diffuse: 0.0, physical: Some(p), ..base }
     }
 
     /// Probability that sampling picks a delta lobe.
