@@ -1,6 +1,8 @@
-//! Hash-derived random streams: every random number in glint is
-//! `hash(pixel, sample, dimension, seed)`, so a render depends only on its seed, never on the
-//! thread that computed a pixel or the order in which pixels were visited.
+//! Hash-derived random streams: every random number in glint is a pure function of
+//! `(pixel, sample, dimension, seed)` — `hash(pixel, sample, dimension, seed)`, or, for the
+//! path mode's low-discrepancy streams, point `sample` of a sequence scrambled by hashes of
+//! `(pixel, dimension, seed)` — so a render depends only on its seed, never on the thread that
+//! computed a pixel or the order in which pixels were visited.
 
 /// A 64-bit finaliser with full avalanche (the `splitmix64` mix; Steele et al. 2014).
 #[inline]
