@@ -438,11 +438,12 @@ fn closest_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32, out: 
             }
         } else {
             let packets = &bvh.packets[leaf_packets(cur)];
-            if lane_leaf(active, packets.len()) && lanes.is_none() {
+            let in_lanes = lane_leaf(active, packets.len());
+            if in_lanes && lanes.is_none() {
                 lanes = Some(LeafLanes::new(rays, group));
             }
             match &lanes {
-                Some(Some(l)) if lane_leaf(active, packets.len()) => {
+                Some(Some(l)) if in_lanes => {
                     for p in packets {
                         l.closest(p, rays, active, &mut pr.tmax, out);
                     }
@@ -502,11 +503,12 @@ fn any_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32) -> u32 {
             }
         } else {
             let packets = &bvh.packets[leaf_packets(cur)];
-            if lane_leaf(active, packets.len()) && lanes.is_none() {
+            let in_lanes = lane_leaf(active, packets.len());
+            if in_lanes && lanes.is_none() {
                 lanes = Some(LeafLanes::new(rays, group));
             }
             match &lanes {
-                Some(Some(l)) if lane_leaf(active, packets.len()) => {
+                Some(Some(l)) if in_lanes => {
                     let mut hit = 0;
                     for p in packets {
                         hit |= l.any(p, rays, active & !hit, &ray_tmax);
