@@ -215,7 +215,9 @@ impl<I: Isa> RayOrigins8<I> {
     #[inline(always)]
     #[must_use]
     pub fn new(p: V8<I>, p_error: V8<I>, n: V8<I>) -> Self {
-        let d = n.abs().dot(p_error);
+        // At least the largest error component, as the scalar offset: on an axis-aligned
+        // surface at coordinate 0 the projected bound is 0 (see `offset_ray_origin`).
+        let d = n.abs().dot(p_error).max(p_error.max_element());
         let offset = n.scale(d);
         RayOrigins8 { front: round_away(p + offset, offset), back: round_away(p + (-offset), -offset), n }
     }
@@ -395,6 +397,18 @@ mod tests {
         let o = offset_ray_origin8(p, e, n, w);
         for i in 0..LANES {
             assert_eq!(o.lane(i), offset_ray_origin(p.lane(i), e.lane(i), n.lane(i), w.lane(i)), "lane {i}");
+        }
+        // Axis-aligned walls at coordinate 0 (a Cornell box's): the error bound along the
+        // normal is 0, the offset comes from the other components.
+        let p = V8::<Sse>::from_fn(|i| Vec3::new(0.0, 0.3 * i as f32, 1.0 - 0.2 * i as f32));
+        let e = V8::from_fn(|i| Vec3::new(0.0, gamma(5) * (1.0 + i as f32), gamma(7)));
+        let n = V8::from_fn(|i| if i % 3 == 0 { -Vec3::X } else { Vec3::X });
+        let w = V8::from_fn(|i| Vec3::new(if i % 2 == 0 { 1.0 } else { -1.0 }, 0.5, 0.1).normalize());
+        let o = offset_ray_origin8(p, e, n, w);
+        for i in 0..LANES {
+            let want = offset_ray_origin(p.lane(i), e.lane(i), n.lane(i), w.lane(i));
+            assert_ne!(want.x, 0.0, "lane {i}: the scalar offset leaves the wall");
+            assert_eq!(o.lane(i), want, "lane {i}");
         }
     }
 
