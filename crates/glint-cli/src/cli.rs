@@ -613,6 +613,8 @@ pub struct BenchPathArgs {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum PathKernelArg {
     Wavefront,
+    /// The wavefront shading every vertex one at a time (its batched shading's baseline).
+    WavefrontScalar,
     Recursive,
 }
 
@@ -620,6 +622,7 @@ impl From<PathKernelArg> for glint_render::path::PathKernel {
     fn from(k: PathKernelArg) -> Self {
         match k {
             PathKernelArg::Wavefront => glint_render::path::PathKernel::Wavefront,
+            PathKernelArg::WavefrontScalar => glint_render::path::PathKernel::WavefrontScalar,
             PathKernelArg::Recursive => glint_render::path::PathKernel::Recursive,
         }
     }

@@ -512,6 +512,53 @@ fn wavefront_and_recursive_tracers_agree_without_delta_lobes() {
     }
 }
 
+/// In a scene lit by emissive triangles alone, the wavefront shades the vertices on
+/// Lambertian surfaces behind the guide vertex eight at a time in lanes; `WavefrontScalar`
+/// sends the same vertices, in the same order, through the scalar code. Every lane performs
+/// the scalar operations in their order, so the two pictures are the same bit for bit:
+/// Phong's diffuse-only reading (the Cornell box of scenes/), Mitsuba's `diffuse` (its XML
+/// box), smooth shading normals (the dragon made diffuse), surfaces of both kinds in one round
+/// (the glossy dragon), roulette, Mitsuba's budget, both samplers, guided frames.
+#[test]
+fn lambertian_vertices_in_lanes_are_the_scalar_vertices() {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../");
+    let load = |p: &str| glint_formats::load(std::path::Path::new(&format!("{root}{p}"))).expect(p).scene;
+    let dragon = load("scenes/cornell-dragon.toml");
+    let mut diffuse_dragon = dragon.clone();
+    for m in &mut diffuse_dragon.materials {
+        m.specular = 0.0;
+    }
+    let mitsuba_xml = load("../shared/data/mitsuba/scenes/cbox/cbox.xml");
+    let guided = Filter::Guided(GuidedParams::for_width(32));
+    let s = settings(32, 32);
+    for (name, scene) in
+        [("cbox", mitsuba_cbox()), ("cbox.xml", mitsuba_xml), ("dragon", dragon), ("diffuse dragon", diffuse_dragon)]
+    {
+        let world = World::new(scene);
+        assert!(glint_render::path::LightSet::new(&world).area_only(), "{name}: lit by triangles alone");
+        for p in [
+            path(3, 4, Filter::None),
+            PathSettings { rr_start: 1, sampler: Sampler::Independent, ..path(2, 6, Filter::None) },
+            PathSettings { max_depth: Some(6), rr_start: 2, ..path(3, 3, Filter::None) },
+            PathSettings { filter_area_direct: true, ..path(2, 2, guided) },
+        ] {
+            let frame = |kernel| path_frame(&world, &s, &PathSettings { kernel, ..p }).expect("render");
+            let (a, sa) = frame(PathKernel::Wavefront);
+            let (b, sb) = frame(PathKernel::WavefrontScalar);
+            assert_eq!(sa.rays, sb.rays, "{name} {p:?}: ray counts");
+            let mut lit = 0;
+            for i in 0..a.pixels.len() {
+                let (x, y) = (a.record(i), b.record(i));
+                let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+                assert_eq!(bits(x.colour), bits(y.colour), "{name} {p:?}: pixel {i}");
+                assert_eq!(bits(a.path[i].indirect), bits(b.path[i].indirect), "{name} {p:?}: indirect {i}");
+                lit += (x.colour.max_element() > 0.01) as usize;
+            }
+            assert!(lit > 500, "{name} {p:?}: {lit} lit pixels");
+        }
+    }
+}
+
 /// Where guide vertices also follow mirror and glass lobes, the wavefront tracer runs those
 /// beside the indirect path on their own random dimensions: a different picture, the same
 /// estimator. Many independent frames of each tracer (disjoint seeds) give per-pixel means

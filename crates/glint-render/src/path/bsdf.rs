@@ -156,6 +156,26 @@ impl Bsdf {
         }
     }
 
+    /// A Lambertian surface whose shading and geometric normals differ (the Phong reading of
+    /// a material with neither a glossy lobe nor delta lobes).
+    pub fn diffuse_with_geometric(diffuse: Rgb, normal: Vec3, geometric: Vec3) -> Bsdf {
+        Bsdf { geometric, ..Bsdf::lambertian(diffuse, normal) }
+    }
+
+    /// `(ρd, shading normal, geometric normal)` when this BSDF is a Lambertian lobe alone,
+    /// chosen with probability 1: every query then equals
+    /// [`Bsdf::diffuse_with_geometric`]'s of those three (the batched path vertices shade it).
+    #[inline]
+    pub fn lambertian_parts(&self) -> Option<(Rgb, Vec3, Vec3)> {
+        let alone = self.physical.is_none()
+            && self.p_diffuse == 1.0
+            && self.glossy == 0.0
+            && self.p_glossy == 0.0
+            && self.p_mirror == 0.0
+            && self.refracted.is_none();
+        alone.then_some((self.diffuse, self.normal, self.geometric))
+    }
+
     /// A physically based model at a hit whose geometric normal (on the viewer's side) is `ng`.
     pub fn physical(p: Physical, ng: Vec3) -> Bsdf {
         let base = Bsdf::lambertian(p.diffuse_albedo(), p.normal());

@@ -46,6 +46,57 @@ pub struct LightSample {
     pub pdf: f32,
 }
 
+/// A point chosen on an emissive triangle (barycentric `b0`, `b1` of `vertices`), with what
+/// the sample seen from a shading point needs: [`AreaChoice::sample_from`], and the batched
+/// path vertices' eight-lane copy of it.
+#[derive(Clone, Copy, Debug)]
+pub struct AreaChoice {
+    /// Wound so that `(v1 − v0) × (v2 − v0)` is the front face's normal.
+    pub vertices: [Vec3; 3],
+    pub two_sided: bool,
+    pub area: f32,
+    /// Probability of choosing this triangle.
+    pub p_choice: f32,
+    pub b0: f32,
+    pub b1: f32,
+    /// Radiance emitted there.
+    pub emission: Rgb,
+}
+
+impl AreaChoice {
+    /// The light sample of this point seen from `hit` (`None` where the point is on the
+    /// hit, or the light turns its back).
+    #[inline]
+    pub fn sample_from(&self, hit: &SurfaceHit) -> Option<LightSample> {
+        let [a, b, c] = self.vertices;
+        let (b0, b1) = (self.b0, self.b1);
+        let target = a * b0 + b * b1 + c * (1.0 - b0 - b1);
+        let to = target - hit.position;
+        let dist2 = to.length_squared();
+        if dist2.is_nan() || dist2 <= 0.0 {
+            return None;
+        }
+        let dist = dist2.sqrt();
+        let wi = to / dist;
+        let n = (b - a).cross(c - a);
+        // One-sided lights shine from their front face only: toward −n·wi > 0.
+        let facing = -n.dot(wi);
+        let cos_l = if self.two_sided { facing.abs() } else { facing } / n.length();
+        if cos_l.is_nan() || cos_l <= 1e-7 {
+            return None;
+        }
+        let pdf = self.p_choice * dist2 / (self.area * cos_l);
+        let mut shadow = hit.spawn_ray_to(target);
+        // Stop short of the light's own surface.
+        shadow.tmax *= SHADOW_SHORT;
+        Some(LightSample { wi, shadow, weight: self.emission / pdf, pdf })
+    }
+}
+
+/// A shadow ray toward a point on a light stops this fraction of the way, short of the
+/// light's own surface.
+pub const SHADOW_SHORT: f32 = 1.0 - 1e-4;
+
 pub struct LightSet {
     entries: Vec<Entry>,
     /// Cumulative choice probabilities (last = 1).
@@ -148,6 +199,42 @@ impl LightSet {
         self.cdf[entry] - lo
     }
 
+    /// Whether every light is an emissive triangle (no point, spot or directional light, no
+    /// sky): [`LightSet::choose_area`] then stands for [`LightSet::sample`]'s choice.
+    pub fn area_only(&self) -> bool {
+        self.delta_lights.is_empty() && self.sky_entry.is_none()
+    }
+
+    /// The triangle and point on it that [`LightSet::sample`] picks from `u_choice` and `u`,
+    /// before it looks from a shading point: `None` where the choice falls on a light that
+    /// is not a triangle or has no probability.
+    pub fn choose_area(&self, world: &World, u_choice: f32, u: Vec2) -> Option<AreaChoice> {
+        let entry = self.cdf.partition_point(|&c| c <= u_choice).min(self.entries.len().checked_sub(1)?);
+        let p_choice = self.choice_probability(entry);
+        match self.entries[entry] {
+            Entry::Triangle(i) if p_choice > 0.0 => Some(self.area_choice(world, i, p_choice, u)),
+            _ => None,
+        }
+    }
+
+    /// Triangle `i` chosen with probability `p_choice`, at the point `u` warps to (uniform in
+    /// area: Turk's square-root parametrisation).
+    #[inline]
+    fn area_choice(&self, world: &World, i: usize, p_choice: f32, u: Vec2) -> AreaChoice {
+        let t = &self.triangles[i];
+        let su = u.x.sqrt();
+        let (b0, b1) = (1.0 - su, u.y * su);
+        AreaChoice {
+            vertices: t.vertices,
+            two_sided: t.two_sided,
+            area: self.areas[i],
+            p_choice,
+            b0,
+            b1,
+            emission: t.emission_at(world, b0, b1),
+        }
+    }
+
     /// One light sample for the shading point `hit`, from `u_choice` and `u`, among the lights
     /// not in [`LightSet::each_delta`].
     pub fn sample(&self, world: &World, hit: &SurfaceHit, u_choice: f32, u: Vec2) -> Option<LightSample> {
@@ -165,33 +252,7 @@ impl LightSet {
                 s.weight /= p_choice;
                 Some(s)
             }
-            Entry::Triangle(i) => {
-                let t = &self.triangles[i];
-                let [a, b, c] = t.vertices;
-                let su = u.x.sqrt();
-                let (b0, b1) = (1.0 - su, u.y * su);
-                let target = a * b0 + b * b1 + c * (1.0 - b0 - b1);
-                let to = target - hit.position;
-                let dist2 = to.length_squared();
-                if dist2.is_nan() || dist2 <= 0.0 {
-                    return None;
-                }
-                let dist = dist2.sqrt();
-                let wi = to / dist;
-                let n = (b - a).cross(c - a);
-                // One-sided lights shine from their front face only: toward −n·wi > 0.
-                let facing = -n.dot(wi);
-                let cos_l = if t.two_sided { facing.abs() } else { facing } / n.length();
-                if cos_l.is_nan() || cos_l <= 1e-7 {
-                    return None;
-                }
-                let pdf = p_choice * dist2 / (self.areas[i] * cos_l);
-                let mut shadow = hit.spawn_ray_to(target);
-                // Stop short of the light's own surface.
-                shadow.tmax *= 1.0 - 1e-4;
-                let emission = t.emission_at(world, b0, b1);
-                Some(LightSample { wi, shadow, weight: emission / pdf, pdf })
-            }
+            Entry::Triangle(i) => self.area_choice(world, i, p_choice, u).sample_from(hit),
             Entry::Sky => {
                 let sky = self.sky.as_ref()?;
                 let s = sky.sample(world.sky(), u)?;

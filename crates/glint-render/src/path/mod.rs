@@ -39,7 +39,7 @@ use glint_core::{PixelFilter, PixelSampler, Ray, Rgb, Vec2, Vec3};
 use glint_filter::Filter;
 use glint_scene::{Camera, limits};
 use integrator::{CameraSample, IndirectMode, Integrator, PathParams};
-use lights::LightSet;
+pub use lights::LightSet;
 use lookup::GuideMap;
 pub use progressive::PathAccumulator;
 use rayon::prelude::*;
@@ -106,6 +106,9 @@ pub enum PathKernel {
     /// and shadow rays asked eight at a time ([`wavefront`]).
     #[default]
     Wavefront,
+    /// The wavefront with every vertex shaded one at a time: the oracle of its vertices
+    /// shaded eight at a time (the same picture, bit for bit), and their speed's baseline.
+    WavefrontScalar,
     /// Depth first, one camera sample after another (the oracle).
     Recursive,
 }
@@ -347,8 +350,8 @@ enum Tracer<'a> {
 impl<'a> Tracer<'a> {
     fn new(world: &'a World, frame: &'a Frame, kernel: PathKernel) -> Self {
         match kernel {
-            PathKernel::Wavefront => Tracer::Wavefront {
-                wavefront: Box::new(Wavefront::new(world, frame)),
+            PathKernel::Wavefront | PathKernel::WavefrontScalar => Tracer::Wavefront {
+                wavefront: Box::new(Wavefront::new(world, frame, kernel == PathKernel::Wavefront)),
                 requests: Vec::with_capacity(RUN_SAMPLES),
                 out: Vec::with_capacity(RUN_SAMPLES),
             },

@@ -24,11 +24,14 @@
 //! Every number is still `hash(pixel, sample, dimension, seed)`: no thread count or schedule
 //! changes a bit.
 
+mod diffuse8;
+
 use super::Frame;
 use super::bsdf::Bsdf;
 use super::integrator::{Arrival, CameraSample, GuideGeometry, IndirectMode, bsdf_at, clamp_radiance, light_samples};
 use crate::stats::RayCounts;
 use crate::world::{SurfaceHit, World};
+use diffuse8::{Budget, DiffuseResult, DiffuseVertex};
 use glint_core::random::SampleStream;
 use glint_core::{Ray, Rgb, Vec2, Vec3};
 
@@ -133,6 +136,18 @@ pub(super) struct Wavefront<'a> {
     frame: &'a Frame,
     pub counts: RayCounts,
     q: Queues,
+    batch: Batch,
+}
+
+/// How a round's vertices on Lambertian surfaces are shaded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Batch {
+    /// Each where it comes (a scene with lights other than emissive triangles).
+    Off,
+    /// Queued, then eight at a time in lanes ([`diffuse8`]).
+    Lanes,
+    /// Queued, then one at a time by the scalar code (the lanes' oracle: the same order).
+    Scalar,
 }
 
 /// A worker thread's queues between the wavefront tracers it makes (one per band): a fresh
@@ -148,6 +163,8 @@ struct Queues {
     ended: Vec<u32>,
     shadows: Vec<Shadow>,
     order: Vec<u32>,
+    diffuse: Vec<DiffuseVertex>,
+    diffuse_out: Vec<DiffuseResult>,
 }
 
 thread_local! {
@@ -155,9 +172,16 @@ thread_local! {
 }
 
 impl<'a> Wavefront<'a> {
-    pub(super) fn new(world: &'a World, frame: &'a Frame) -> Self {
+    /// A tracer of `frame`; `lanes`: its Lambertian vertices shaded eight at a time (else one
+    /// at a time, in the same order).
+    pub(super) fn new(world: &'a World, frame: &'a Frame, lanes: bool) -> Self {
         let q = QUEUES.try_with(|q| q.take()).unwrap_or_default();
-        Self { world, frame, counts: RayCounts::default(), q }
+        let batch = match (frame.lights.area_only(), lanes) {
+            (false, _) => Batch::Off,
+            (true, true) => Batch::Lanes,
+            (true, false) => Batch::Scalar,
+        };
+        Self { world, frame, counts: RayCounts::default(), q, batch }
     }
 
     /// Trace the camera samples `requests`; `out[i]` is request `i`'s image position and
@@ -190,12 +214,13 @@ impl<'a> Wavefront<'a> {
             // shading pushes onto the others): copying each ~100-byte path and hit out first
             // was a tenth of a Cornell box frame.
             let (paths, hits) = (std::mem::take(&mut self.q.paths), std::mem::take(&mut self.q.hits));
-            for (path, hit) in paths.iter().zip(&hits) {
+            for (i, (path, hit)) in paths.iter().zip(&hits).enumerate() {
                 match &path.leg {
                     Leg::Camera(leg) => self.shade_camera(path, *leg, hit.as_ref(), out),
-                    Leg::Tail(leg) => self.shade_tail(path, *leg, hit.as_ref()),
+                    Leg::Tail(leg) => self.shade_tail(i as u32, path, *leg, hit.as_ref()),
                 }
             }
+            self.shade_lambertian(&paths, &hits);
             (self.q.paths, self.q.hits) = (paths, hits);
             self.trace_shadows(out);
             for &t in &self.q.ended {
@@ -376,8 +401,10 @@ impl<'a> Wavefront<'a> {
         self.q.next.push(Path { slot: tail.slot, ray, stream, leg: Leg::Tail(leg) });
     }
 
-    /// One vertex behind a guide vertex: the recursive tracer's `trace_path` loop body.
-    fn shade_tail(&mut self, path: &Path, mut leg: TailLeg, hit: Option<&SurfaceHit>) {
+    /// One vertex behind a guide vertex (path `index` of the round): the recursive tracer's
+    /// `trace_path` loop body. A Lambertian one in a scene lit by emissive triangles alone is
+    /// queued for [`Wavefront::shade_lambertian`] after its emission is taken.
+    fn shade_tail(&mut self, index: u32, path: &Path, leg: TailLeg, hit: Option<&SurfaceHit>) {
         self.counts.secondary += 1;
         let frame = self.frame;
         let (params, lights) = (frame.params, &frame.lights);
@@ -395,6 +422,19 @@ impl<'a> Wavefront<'a> {
             let weight = leg.arrival.emission_weight(lights.pdf_surface(leg.arrival.from, path.ray.dir, hit));
             self.q.tails[leg.tail as usize].li += leg.beta * emission * weight;
         }
+        if self.batch != Batch::Off
+            && let Some(parts) = bsdf.lambertian_parts()
+        {
+            let budget = Budget { mitsuba: params.max_depth.is_some(), rr_start: params.rr_start };
+            self.q.diffuse.push(DiffuseVertex::new(index, path, &leg, parts, lights, self.world, budget));
+            return;
+        }
+        self.continue_tail(path, leg, hit, bsdf);
+    }
+
+    /// A vertex behind a guide vertex after its emission: its light samples, its bounce.
+    fn continue_tail(&mut self, path: &Path, mut leg: TailLeg, hit: &SurfaceHit, bsdf: &Bsdf) {
+        let params = self.frame.params;
         let mut stream = path.stream;
         // Mitsuba's budget follows the last light-sampling vertex's BSDF one more segment, for
         // the emission it finds (MIS-weighted); glint's does not trace it.
@@ -432,6 +472,45 @@ impl<'a> Wavefront<'a> {
         }
         leg.arrival = Arrival { pdf: s.pdf, delta: s.delta, after_guide: false, from: hit.position };
         self.q.next.push(Path { slot: path.slot, ray: hit.spawn_ray(s.wi), stream, leg: Leg::Tail(leg) });
+    }
+
+    /// The round's queued Lambertian vertices (`paths[v.index]`, `hits[v.index]`): their
+    /// shadow rays and next paths queued in their order, as `continue_tail` would have.
+    fn shade_lambertian(&mut self, paths: &[Path], hits: &[Option<SurfaceHit>]) {
+        if self.q.diffuse.is_empty() {
+            return;
+        }
+        let mut vertices = std::mem::take(&mut self.q.diffuse);
+        if self.batch == Batch::Scalar {
+            for v in &vertices {
+                let path = &paths[v.index as usize];
+                if let (Leg::Tail(leg), Some(hit)) = (path.leg, &hits[v.index as usize]) {
+                    self.continue_tail(path, leg, hit, &v.bsdf());
+                }
+            }
+        } else {
+            let mut results = std::mem::take(&mut self.q.diffuse_out);
+            diffuse8::shade(paths, hits, &vertices, &mut results);
+            for (v, r) in vertices.iter().zip(&results) {
+                let path = &paths[v.index as usize];
+                let (Leg::Tail(leg), Some(hit)) = (path.leg, &hits[v.index as usize]) else { continue };
+                if let Some((ray, rest)) = r.shadow {
+                    self.counts.shadow += 1;
+                    let (direct, indirect) = (Rgb::ZERO, Rgb::ZERO);
+                    self.q.shadows.push(Shadow { ray, slot: 0, tail: leg.tail, rest, direct, indirect });
+                }
+                let Some((ray, beta, pdf)) = r.next else {
+                    self.q.ended.push(leg.tail);
+                    continue;
+                };
+                let arrival = Arrival { pdf, delta: false, after_guide: false, from: hit.position };
+                let leg = TailLeg { beta, bounce: leg.bounce + 1, arrival, ..leg };
+                self.q.next.push(Path { slot: path.slot, ray, stream: v.stream, leg: Leg::Tail(leg) });
+            }
+            self.q.diffuse_out = results;
+        }
+        vertices.clear();
+        self.q.diffuse = vertices;
     }
 
     /// Next-event estimation at a vertex: its shadow rays queued with what each adds.

@@ -1,0 +1,380 @@
+//! Eight path vertices on Lambertian surfaces shaded at once, structure of arrays (the
+//! wavefront's "shade in SIMD batches" for the commonest vertex of a scene lit by area
+//! lights: a diffuse wall behind the guide vertex).
+//!
+//! A round's vertices behind guide vertices whose BSDF is a Lambertian lobe alone
+//! ([`Bsdf::lambertian_parts`]) in a scene whose lights are all emissive triangles
+//! ([`LightSet::area_only`]) are queued while the round is shaded ([`DiffuseVertex`]: their
+//! random numbers drawn in the scalar code's order, the light's triangle chosen), then shaded
+//! eight to a kernel call ([`shade`]), in three steps:
+//! 1. **gather**: each lane's hit, BSDF, path state and light choice into lanes;
+//! 2. **lanes**: the light sample's point, direction, pdf and shadow ray
+//!    ([`crate::path::lights::AreaChoice::sample_from`]), the BSDF's value and pdf there, the
+//!    power heuristic, the cosine-weighted bounce (its disc point is drawn per lane: `sin` and
+//!    `cos` stay libm's), its frame (Duff et al. 2017), weight and Russian roulette, and both
+//!    rays' origins ([`RayOrigins8`]);
+//! 3. **scatter**: lane by lane, the shadow ray queued and the path continued or ended, in
+//!    the order the scalar code would have queued them.
+//!
+//! Every lane performs the scalar code's float operations in its order (no fused
+//! multiply-add; `glint_accel::lanes` guarantees each operation's bits on both instruction
+//! sets), so a lane gives the bits of `Wavefront::shade_tail` on the same vertex: the
+//! `WavefrontScalar` kernel, which sends the same queue through that scalar code, is the
+//! oracle (tests/path.rs compares the two pictures bit for bit).
+
+use super::{Path, TailLeg};
+use crate::path::bsdf::Bsdf;
+use crate::path::lights::{AreaChoice, LightSet, SHADOW_SHORT};
+use crate::world::{SurfaceHit, World};
+use glint_accel::batch::RayOrigins8;
+use glint_accel::lanes::{F8, Isa, LANES, LaneKernel, M8, V8, dispatch};
+use glint_core::random::SampleStream;
+use glint_core::sampling::sample_disc_concentric;
+use glint_core::{Ray, Rgb, Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
+
+/// A vertex behind a guide vertex on a Lambertian surface, its random numbers drawn: one
+/// lane's input.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct DiffuseVertex {
+    /// Its path's and hit's index in the round.
+    pub index: u32,
+    /// ρd, and the shading and geometric normals on the viewer's side.
+    pub diffuse: Rgb,
+    pub normal: Vec3,
+    pub geometric: Vec3,
+    /// The light sample's point; `None` where the vertex samples no light or the choice
+    /// found none.
+    pub light: Option<AreaChoice>,
+    /// The light sample is weighed against BSDF sampling (power heuristic).
+    pub mis: bool,
+    /// The bounce's point on the unit disc; `None` where the path ends after its light sample.
+    pub disc: Option<Vec2>,
+    /// Russian roulette's number, where the next vertex is past `rr_start`.
+    pub rr: Option<f32>,
+    /// The path's stream after these draws.
+    pub stream: SampleStream,
+}
+
+/// How the path budget treats a vertex (the scalar `shade_tail`'s reading of its
+/// parameters).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Budget {
+    /// Mitsuba's `max_depth` (its last light-sampling vertex follows its BSDF once more).
+    pub mitsuba: bool,
+    pub rr_start: u32,
+}
+
+impl DiffuseVertex {
+    /// The vertex of `path` (its leg `leg`) at a surface whose BSDF has the Lambertian
+    /// `parts`: its numbers drawn from the path's stream in the order `shade_tail` draws them
+    /// (light choice and point, then lobe and direction, then the roulette's), so the stream
+    /// it carries on is the scalar code's.
+    #[inline]
+    pub fn new(
+        index: u32,
+        path: &Path,
+        leg: &TailLeg,
+        parts: (Rgb, Vec3, Vec3),
+        lights: &LightSet,
+        world: &World,
+        budget: Budget,
+    ) -> DiffuseVertex {
+        let (diffuse, normal, geometric) = parts;
+        let mut stream = path.stream;
+        let (mut light, mut mis) = (None, false);
+        if leg.bounce <= leg.max_bounces {
+            // MIS against BSDF sampling, except at the last vertex (its BSDF ray is not traced).
+            mis = leg.bounce < leg.max_bounces || budget.mitsuba;
+            let u_choice = stream.next_1d();
+            let u = stream.next_2d();
+            light = lights.choose_area(world, u_choice, u);
+        }
+        let (mut disc, mut rr) = (None, None);
+        if leg.bounce < leg.max_bounces + u32::from(budget.mitsuba) {
+            // The lobe's number: a lone Lambertian lobe is chosen whatever it is.
+            let _ = stream.next_1d();
+            disc = Some(sample_disc_concentric(stream.next_2d()));
+            if leg.bounce + 1 > budget.rr_start {
+                rr = Some(stream.next_1d());
+            }
+        }
+        DiffuseVertex { index, diffuse, normal, geometric, light, mis, disc, rr, stream }
+    }
+
+    /// The BSDF the scalar code shades this vertex with.
+    pub fn bsdf(&self) -> Bsdf {
+        Bsdf::diffuse_with_geometric(self.diffuse, self.normal, self.geometric)
+    }
+}
+
+/// What a vertex gives back.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct DiffuseResult {
+    /// Its shadow ray, and what that adds to its tail's radiance when nothing blocks it.
+    pub shadow: Option<(Ray, Rgb)>,
+    /// The path's next ray, its β and the bounce's pdf; `None`: the path ends here.
+    pub next: Option<(Ray, Rgb, f32)>,
+}
+
+/// Shade `vertices` (whose paths and hits are `paths[v.index]`, `hits[v.index]`, each a
+/// tail leg with a hit) eight at a time with the best instruction set this CPU has;
+/// `out[i]` is vertex `i`'s result.
+pub(super) fn shade(
+    paths: &[Path],
+    hits: &[Option<SurfaceHit>],
+    vertices: &[DiffuseVertex],
+    out: &mut Vec<DiffuseResult>,
+) {
+    out.clear();
+    dispatch(Kernel { paths, hits, vertices, out }, false);
+}
+
+struct Kernel<'a> {
+    paths: &'a [Path],
+    hits: &'a [Option<SurfaceHit>],
+    vertices: &'a [DiffuseVertex],
+    out: &'a mut Vec<DiffuseResult>,
+}
+
+impl LaneKernel for Kernel<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run<I: Isa>(self) {
+        for chunk in self.vertices.chunks(LANES) {
+            let lanes = gather::<I>(chunk, self.paths, self.hits);
+            let shaded = shade8(&lanes);
+            scatter(&shaded, chunk.len(), self.out);
+        }
+    }
+}
+
+/// Eight vertices' inputs in lanes (a short chunk repeats its last vertex; the copies'
+/// answers are dropped).
+struct Lanes<I: Isa> {
+    position: V8<I>,
+    p_error: V8<I>,
+    /// The hit's geometric normal as the geometry orients it (ray origins' side test).
+    hit_normal: V8<I>,
+    normal: V8<I>,
+    geometric: V8<I>,
+    diffuse: V8<I>,
+    beta: V8<I>,
+    light: M8<I>,
+    vertices: [V8<I>; 3],
+    two_sided: M8<I>,
+    area: F8<I>,
+    p_choice: F8<I>,
+    b0: F8<I>,
+    b1: F8<I>,
+    emission: V8<I>,
+    mis: M8<I>,
+    bounce: M8<I>,
+    disc: [F8<I>; 2],
+    rr: M8<I>,
+    u_rr: F8<I>,
+}
+
+#[inline(always)]
+fn gather<I: Isa>(chunk: &[DiffuseVertex], paths: &[Path], hits: &[Option<SurfaceHit>]) -> Lanes<I> {
+    let (zero, zero3) = (F8::zero(), V8::zero());
+    let mut l = Lanes {
+        position: zero3,
+        p_error: zero3,
+        hit_normal: zero3,
+        normal: zero3,
+        geometric: zero3,
+        diffuse: zero3,
+        beta: zero3,
+        light: M8::none_set(),
+        vertices: [zero3; 3],
+        two_sided: M8::none_set(),
+        area: zero,
+        p_choice: zero,
+        b0: zero,
+        b1: zero,
+        emission: zero3,
+        mis: M8::none_set(),
+        bounce: M8::none_set(),
+        disc: [zero; 2],
+        rr: M8::none_set(),
+        u_rr: zero,
+    };
+    let (mut light, mut two_sided, mut mis, mut bounce, mut rr) = (0u32, 0u32, 0u32, 0u32, 0u32);
+    for i in 0..LANES {
+        let v = &chunk[i.min(chunk.len() - 1)];
+        let bit = 1 << i;
+        let index = v.index as usize;
+        // Queued from a tail leg with a hit (`Wavefront::shade_tail`).
+        if let Some(hit) = &hits[index] {
+            l.position.set(i, hit.position);
+            l.p_error.set(i, hit.p_error);
+            l.hit_normal.set(i, hit.geometric_normal);
+        }
+        if let super::Leg::Tail(leg) = &paths[index].leg {
+            l.beta.set(i, leg.beta);
+        }
+        l.normal.set(i, v.normal);
+        l.geometric.set(i, v.geometric);
+        l.diffuse.set(i, v.diffuse);
+        if let Some(c) = &v.light {
+            light |= bit;
+            if c.two_sided {
+                two_sided |= bit;
+            }
+            for (k, p) in c.vertices.iter().enumerate() {
+                l.vertices[k].set(i, *p);
+            }
+            l.area[i] = c.area;
+            l.p_choice[i] = c.p_choice;
+            l.b0[i] = c.b0;
+            l.b1[i] = c.b1;
+            l.emission.set(i, c.emission);
+        }
+        if v.mis {
+            mis |= bit;
+        }
+        if let Some(d) = v.disc {
+            bounce |= bit;
+            l.disc[0][i] = d.x;
+            l.disc[1][i] = d.y;
+        }
+        if let Some(u) = v.rr {
+            rr |= bit;
+            l.u_rr[i] = u;
+        }
+    }
+    (l.light, l.two_sided, l.mis, l.bounce, l.rr) =
+        (M8::from_bits(light), M8::from_bits(two_sided), M8::from_bits(mis), M8::from_bits(bounce), M8::from_bits(rr));
+    l
+}
+
+/// Eight vertices' answers in lanes.
+struct Shaded<I: Isa> {
+    shadow: M8<I>,
+    shadow_origin: V8<I>,
+    shadow_dir: V8<I>,
+    shadow_tmax: F8<I>,
+    shadow_adds: V8<I>,
+    next: M8<I>,
+    next_origin: V8<I>,
+    next_dir: V8<I>,
+    next_beta: V8<I>,
+    next_pdf: F8<I>,
+}
+
+/// `v / s` per component (glam's `Vec3 / f32`).
+#[inline(always)]
+fn over<I: Isa>(v: V8<I>, s: F8<I>) -> V8<I> {
+    V8::new(v.x / s, v.y / s, v.z / s)
+}
+
+/// Lanes where some component of `v` is above 0 (the scalar `max_element() > 0`).
+#[inline(always)]
+fn any_positive<I: Isa>(v: V8<I>) -> M8<I> {
+    let zero = F8::zero();
+    v.x.gt(zero) | v.y.gt(zero) | v.z.gt(zero)
+}
+
+/// glam's `max_element`, its comparisons in its order: `max(x, max(y, z))`.
+#[inline(always)]
+fn max_element<I: Isa>(v: V8<I>) -> F8<I> {
+    let yz = F8::select(v.y.gt(v.z), v.y, v.z);
+    F8::select(v.x.gt(yz), v.x, yz)
+}
+
+/// The Lambertian lobe toward `wi`: `(f·cos, pdf)` where it reflects (cos above 0 by both
+/// normals), zero elsewhere ([`Bsdf::eval_cos_and_pdf`] of a lone diffuse lobe).
+#[inline(always)]
+fn lambert<I: Isa>(l: &Lanes<I>, wi: V8<I>) -> (M8<I>, V8<I>, F8<I>) {
+    let zero = F8::zero();
+    let cos = l.normal.dot(wi);
+    let reflects = cos.gt(zero) & l.geometric.dot(wi).gt(zero);
+    let f = l.diffuse.scale(F8::splat(FRAC_1_PI)).scale(cos);
+    let f = V8::select(reflects, f, V8::zero());
+    let pdf = F8::select(reflects, cos * F8::splat(FRAC_1_PI), zero);
+    (reflects, f, pdf)
+}
+
+#[inline(always)]
+fn shade8<I: Isa>(l: &Lanes<I>) -> Shaded<I> {
+    let (zero, one) = (F8::zero(), F8::one());
+    let origins = RayOrigins8::new(l.position, l.p_error, l.hit_normal);
+
+    // The light sample: `AreaChoice::sample_from`, operation for operation.
+    let [a, b, c] = l.vertices;
+    let target = a.scale(l.b0) + b.scale(l.b1) + c.scale(one - l.b0 - l.b1);
+    let to = target - l.position;
+    let dist2 = to.dot(to);
+    let mut found = l.light & dist2.gt(zero);
+    let wi = over(to, dist2.sqrt());
+    let n = (b - a).cross(c - a);
+    let facing = -n.dot(wi);
+    let cos_l = F8::select(l.two_sided, facing.abs(), facing) / n.dot(n).sqrt();
+    found = found & cos_l.gt(F8::splat(1e-7));
+    let pdf_light = l.p_choice * dist2 / (l.area * cos_l);
+    // `SurfaceHit::spawn_ray_to(target)`, stopped short of the light.
+    let origin = origins.toward(to);
+    let d = target - origin;
+    let length = d.dot(d).sqrt();
+    let shadow_dir = over(d, length);
+    let shadow_tmax = length * F8::splat(SHADOW_SHORT);
+    let radiance = over(l.emission, pdf_light);
+    // `light_samples`: the BSDF there, weighed against its own sampling.
+    let (_, f, pdf_bsdf) = lambert(l, wi);
+    let weighed = l.mis & pdf_light.gt(zero);
+    let (a2, b2) = (pdf_light * pdf_light, pdf_bsdf * pdf_bsdf);
+    let heuristic = F8::select((a2 + b2).le(zero), zero, a2 / (a2 + b2));
+    let w = F8::select(weighed, heuristic, one);
+    let shadow = found & any_positive(f);
+    let shadow_adds = l.beta * (f * radiance).scale(w);
+
+    // The bounce: `sample_cosine_hemisphere` in `Frame::from_z(normal)`.
+    let [dx, dy] = l.disc;
+    let dz = (one - (dx * dx + dy * dy)).max(zero).sqrt();
+    let ns = l.normal;
+    let sign = one.copysign(ns.z);
+    let k = F8::splat(-1.0) / (sign + ns.z);
+    let m = ns.x * ns.y * k;
+    let fx = V8::new(one + sign * ns.x * ns.x * k, sign * m, -sign * ns.x);
+    let fy = V8::new(m, sign + ns.y * ns.y * k, -ns.y);
+    let dir = fx.scale(dx) + fy.scale(dy) + ns.scale(dz);
+    let (reflects, f, pdf) = lambert(l, dir);
+    let mut next = l.bounce & reflects & pdf.gt(zero) & pdf.lt(F8::splat(f32::INFINITY));
+    let beta = l.beta * over(f, pdf);
+    // Russian roulette.
+    let q = max_element(beta).min(F8::splat(0.95));
+    let killed = l.rr & (l.u_rr.ge(q) | q.is_nan());
+    next = next.and_not(killed);
+    let beta = V8::select(l.rr, over(beta, q), beta);
+
+    Shaded {
+        shadow,
+        shadow_origin: origin,
+        shadow_dir,
+        shadow_tmax,
+        shadow_adds,
+        next,
+        next_origin: origins.toward(dir),
+        next_dir: dir,
+        next_beta: beta,
+        next_pdf: pdf,
+    }
+}
+
+/// The first `len` lanes' answers onto `out`, lane by lane.
+#[inline(always)]
+fn scatter<I: Isa>(s: &Shaded<I>, len: usize, out: &mut Vec<DiffuseResult>) {
+    for i in 0..len {
+        let shadow = s.shadow.lane(i).then(|| {
+            let ray = Ray::segment(s.shadow_origin.lane(i), s.shadow_dir.lane(i), 0.0, s.shadow_tmax[i]);
+            (ray, s.shadow_adds.lane(i))
+        });
+        let next = s
+            .next
+            .lane(i)
+            .then(|| (Ray::new(s.next_origin.lane(i), s.next_dir.lane(i)), s.next_beta.lane(i), s.next_pdf[i]));
+        out.push(DiffuseResult { shadow, next });
+    }
+}
