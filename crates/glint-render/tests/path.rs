@@ -535,7 +535,7 @@ fn lambertian_vertices_in_lanes_are_the_scalar_vertices() {
         [("cbox", mitsuba_cbox()), ("cbox.xml", mitsuba_xml), ("dragon", dragon), ("diffuse dragon", diffuse_dragon)]
     {
         let world = World::new(scene);
-        assert!(glint_render::path::LightSet::new(&world).area_only(), "{name}: lit by triangles alone");
+        assert!(glint_render::path::lit_by_area_lights_alone(&world), "{name}: lit by triangles alone");
         for p in [
             path(3, 4, Filter::None),
             PathSettings { rr_start: 1, sampler: Sampler::Independent, ..path(2, 6, Filter::None) },

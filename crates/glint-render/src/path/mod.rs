@@ -39,7 +39,7 @@ use glint_core::{PixelFilter, PixelSampler, Ray, Rgb, Vec2, Vec3};
 use glint_filter::Filter;
 use glint_scene::{Camera, limits};
 use integrator::{CameraSample, IndirectMode, Integrator, PathParams};
-pub use lights::LightSet;
+use lights::LightSet;
 use lookup::GuideMap;
 pub use progressive::PathAccumulator;
 use rayon::prelude::*;
@@ -96,6 +96,14 @@ pub struct PathSettings {
     /// (Sobol, the default) or independent (Mitsuba's `independent` sampler; what a Variance
     /// AOV's `variance / N` as the error of a pixel's mean assumes).
     pub sampler: Sampler,
+}
+
+/// Whether every light the path mode samples in `world` is an emissive triangle (no point,
+/// spot or directional light, no sky): the wavefront kernel then shades the vertices on
+/// Lambertian surfaces behind the guide vertex eight at a time.
+#[must_use]
+pub fn lit_by_area_lights_alone(world: &World) -> bool {
+    LightSet::new(world).area_only()
 }
 
 /// How the path tracer runs its samples (the same estimator either way; BENCHMARKS.md §6
