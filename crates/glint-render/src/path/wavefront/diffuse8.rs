@@ -2,7 +2,7 @@
 //! wavefront's "shade in SIMD batches" for the commonest vertex of a scene lit by area
 //! lights: a diffuse wall behind the guide vertex).
 //!
-//! A round's vertices behind guide vertices whose BSDF is a Lambertian lobe alone
+//! A round's guide vertices and the vertices behind them whose BSDF is a Lambertian lobe alone
 //! ([`Bsdf::lambertian_parts`]) in a scene whose lights are all emissive triangles
 //! ([`LightSet::area_only`]) are queued while the round is shaded ([`DiffuseVertex`]: their
 //! random numbers drawn in the scalar code's order, the light's triangle chosen), then shaded
@@ -18,12 +18,14 @@
 //!
 //! Every lane performs the scalar code's float operations in its order (no fused
 //! multiply-add; `glint_accel::lanes` guarantees each operation's bits on both instruction
-//! sets), so a lane gives the bits of `Wavefront::shade_tail` on the same vertex: the
+//! sets), so a lane gives the bits of `Wavefront::continue_tail` (or `guide_vertex`) on the
+//! same vertex: the
 //! `WavefrontScalar` kernel, which sends the same queue through that scalar code, is the
 //! oracle (tests/path.rs compares the two pictures bit for bit).
 
-use super::{Path, TailLeg};
+use super::{CameraLeg, Path, TailLeg};
 use crate::path::bsdf::Bsdf;
+use crate::path::integrator::IndirectMode;
 use crate::path::lights::{AreaChoice, LightSet, SHADOW_SHORT};
 use crate::world::{SurfaceHit, World};
 use glint_accel::batch::RayOrigins8;
@@ -33,12 +35,12 @@ use glint_core::sampling::sample_disc_concentric;
 use glint_core::{Ray, Rgb, Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 
-/// A vertex behind a guide vertex on a Lambertian surface, its random numbers drawn: one
-/// lane's input.
+/// A vertex on a Lambertian surface, its random numbers drawn: one lane's input.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct DiffuseVertex {
     /// Its path's and hit's index in the round.
     pub index: u32,
+    pub kind: Kind,
     /// ρd, and the shading and geometric normals on the viewer's side.
     pub diffuse: Rgb,
     pub normal: Vec3,
@@ -56,6 +58,25 @@ pub(super) struct DiffuseVertex {
     pub stream: SampleStream,
 }
 
+/// Which vertex of its camera sample.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Kind {
+    /// Behind the guide vertex (its path's leg is a tail).
+    Tail,
+    /// The guide vertex itself.
+    Guide(Guide),
+}
+
+/// A guide vertex's state: its camera chain, the albedo it showed, its tail's last
+/// light-sampling vertex, and its stream as `guide_vertex` receives it (the oracle's).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Guide {
+    pub leg: CameraLeg,
+    pub albedo: Rgb,
+    pub bounces: u32,
+    pub entry: SampleStream,
+}
+
 /// How the path budget treats a vertex (the scalar `shade_tail`'s reading of its
 /// parameters).
 #[derive(Clone, Copy, Debug)]
@@ -71,7 +92,7 @@ impl DiffuseVertex {
     /// (light choice and point, then lobe and direction, then the roulette's), so the stream
     /// it carries on is the scalar code's.
     #[inline]
-    pub fn new(
+    pub fn tail(
         index: u32,
         path: &Path,
         leg: &TailLeg,
@@ -99,7 +120,37 @@ impl DiffuseVertex {
                 rr = Some(stream.next_1d());
             }
         }
-        DiffuseVertex { index, diffuse, normal, geometric, light, mis, disc, rr, stream }
+        DiffuseVertex { index, kind: Kind::Tail, diffuse, normal, geometric, light, mis, disc, rr, stream }
+    }
+
+    /// The guide vertex of path `index` (`filtered`: the frame is filtered), its numbers
+    /// drawn from `guide.entry` in `guide_vertex`'s order: the light sample's, then, where it
+    /// starts a traced tail, the bounce's.
+    #[inline]
+    pub fn guide(
+        index: u32,
+        guide: Guide,
+        parts: (Rgb, Vec3, Vec3),
+        lights: &LightSet,
+        world: &World,
+        budget: Budget,
+        filtered: bool,
+    ) -> DiffuseVertex {
+        let (diffuse, normal, geometric) = parts;
+        let mut stream = guide.entry;
+        let trace = guide.leg.mode == IndirectMode::Trace;
+        // Mitsuba's budget weighs the direct light against the BSDF sample.
+        let mitsuba = budget.mitsuba && !filtered;
+        let u_choice = stream.next_1d();
+        let u = stream.next_2d();
+        let light = lights.choose_area(world, u_choice, u);
+        let mut disc = None;
+        if trace && (guide.bounces > 0 || mitsuba) {
+            let _ = stream.next_1d();
+            disc = Some(sample_disc_concentric(stream.next_2d()));
+        }
+        let kind = Kind::Guide(guide);
+        DiffuseVertex { index, kind, diffuse, normal, geometric, light, mis: mitsuba, disc, rr: None, stream }
     }
 
     /// The BSDF the scalar code shades this vertex with.
@@ -111,10 +162,12 @@ impl DiffuseVertex {
 /// What a vertex gives back.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct DiffuseResult {
-    /// Its shadow ray, and what that adds to its tail's radiance when nothing blocks it.
-    pub shadow: Option<(Ray, Rgb)>,
-    /// The path's next ray, its β and the bounce's pdf; `None`: the path ends here.
-    pub next: Option<(Ray, Rgb, f32)>,
+    /// Its shadow ray, what that brings when nothing blocks it (`f·cos·L/pdf` × the MIS
+    /// weight) and that light's diffuse part demodulated (`light_samples`' two colours).
+    pub shadow: Option<(Ray, Rgb, Rgb)>,
+    /// The bounce's ray, the path's β after it (tails: roulette included), its pdf and the
+    /// diffuse lobe's shape `max(n·wi, 0)/π` there; `None`: no bounce.
+    pub next: Option<(Ray, Rgb, f32, f32)>,
 }
 
 /// Shade `vertices` (whose paths and hits are `paths[v.index]`, `hits[v.index]`, each a
@@ -212,9 +265,9 @@ fn gather<I: Isa>(chunk: &[DiffuseVertex], paths: &[Path], hits: &[Option<Surfac
             l.p_error.set(i, hit.p_error);
             l.hit_normal.set(i, hit.geometric_normal);
         }
-        if let super::Leg::Tail(leg) = &paths[index].leg {
-            l.beta.set(i, leg.beta);
-        }
+        // A guide vertex's β is 1 (its tail starts afresh).
+        let beta = if let super::Leg::Tail(leg) = &paths[index].leg { leg.beta } else { Rgb::ONE };
+        l.beta.set(i, beta);
         l.normal.set(i, v.normal);
         l.geometric.set(i, v.geometric);
         l.diffuse.set(i, v.diffuse);
@@ -256,12 +309,14 @@ struct Shaded<I: Isa> {
     shadow_origin: V8<I>,
     shadow_dir: V8<I>,
     shadow_tmax: F8<I>,
-    shadow_adds: V8<I>,
+    shadow_brings: V8<I>,
+    shadow_diffuse: V8<I>,
     next: M8<I>,
     next_origin: V8<I>,
     next_dir: V8<I>,
     next_beta: V8<I>,
     next_pdf: F8<I>,
+    next_shape: F8<I>,
 }
 
 /// `v / s` per component (glam's `Vec3 / f32`).
@@ -328,7 +383,9 @@ fn shade8<I: Isa>(l: &Lanes<I>) -> Shaded<I> {
     let heuristic = F8::select((a2 + b2).le(zero), zero, a2 / (a2 + b2));
     let w = F8::select(weighed, heuristic, one);
     let shadow = found & any_positive(f);
-    let shadow_adds = l.beta * (f * radiance).scale(w);
+    let shadow_brings = (f * radiance).scale(w);
+    let shape = l.normal.dot(wi).max(zero) * F8::splat(FRAC_1_PI);
+    let shadow_diffuse = V8::select(pdf_light.gt(zero), radiance.scale(w * shape), V8::zero());
 
     // The bounce: `sample_cosine_hemisphere` in `Frame::from_z(normal)`.
     let [dx, dy] = l.disc;
@@ -354,12 +411,14 @@ fn shade8<I: Isa>(l: &Lanes<I>) -> Shaded<I> {
         shadow_origin: origin,
         shadow_dir,
         shadow_tmax,
-        shadow_adds,
+        shadow_brings,
+        shadow_diffuse,
         next,
         next_origin: origins.toward(dir),
         next_dir: dir,
         next_beta: beta,
         next_pdf: pdf,
+        next_shape: l.normal.dot(dir).max(zero) * F8::splat(FRAC_1_PI),
     }
 }
 
@@ -369,12 +428,12 @@ fn scatter<I: Isa>(s: &Shaded<I>, len: usize, out: &mut Vec<DiffuseResult>) {
     for i in 0..len {
         let shadow = s.shadow.lane(i).then(|| {
             let ray = Ray::segment(s.shadow_origin.lane(i), s.shadow_dir.lane(i), 0.0, s.shadow_tmax[i]);
-            (ray, s.shadow_adds.lane(i))
+            (ray, s.shadow_brings.lane(i), s.shadow_diffuse.lane(i))
         });
-        let next = s
-            .next
-            .lane(i)
-            .then(|| (Ray::new(s.next_origin.lane(i), s.next_dir.lane(i)), s.next_beta.lane(i), s.next_pdf[i]));
+        let next = s.next.lane(i).then(|| {
+            let ray = Ray::new(s.next_origin.lane(i), s.next_dir.lane(i));
+            (ray, s.next_beta.lane(i), s.next_pdf[i], s.next_shape[i])
+        });
         out.push(DiffuseResult { shadow, next });
     }
 }

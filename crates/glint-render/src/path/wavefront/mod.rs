@@ -31,7 +31,7 @@ use super::bsdf::Bsdf;
 use super::integrator::{Arrival, CameraSample, GuideGeometry, IndirectMode, bsdf_at, clamp_radiance, light_samples};
 use crate::stats::RayCounts;
 use crate::world::{SurfaceHit, World};
-use diffuse8::{Budget, DiffuseResult, DiffuseVertex};
+use diffuse8::{Budget, DiffuseResult, DiffuseVertex, Guide, Kind};
 use glint_core::random::SampleStream;
 use glint_core::{Ray, Rgb, Vec2, Vec3};
 
@@ -55,7 +55,7 @@ pub(super) struct Request {
 }
 
 /// A camera path on its way to its guide vertex (through mirrors and glass).
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct CameraLeg {
     chain: u32,
     throughput: Rgb,
@@ -216,11 +216,11 @@ impl<'a> Wavefront<'a> {
             let (paths, hits) = (std::mem::take(&mut self.q.paths), std::mem::take(&mut self.q.hits));
             for (i, (path, hit)) in paths.iter().zip(&hits).enumerate() {
                 match &path.leg {
-                    Leg::Camera(leg) => self.shade_camera(path, *leg, hit.as_ref(), out),
+                    Leg::Camera(leg) => self.shade_camera(i as u32, path, *leg, hit.as_ref(), out),
                     Leg::Tail(leg) => self.shade_tail(i as u32, path, *leg, hit.as_ref()),
                 }
             }
-            self.shade_lambertian(&paths, &hits);
+            self.shade_lambertian(&paths, &hits, out);
             (self.q.paths, self.q.hits) = (paths, hits);
             self.trace_shadows(out);
             for &t in &self.q.ended {
@@ -255,6 +255,7 @@ impl<'a> Wavefront<'a> {
     /// One vertex of a camera chain: the recursive tracer's `camera_sample_from` loop body.
     fn shade_camera(
         &mut self,
+        index: u32,
         path: &Path,
         mut leg: CameraLeg,
         hit: Option<&SurfaceHit>,
@@ -318,7 +319,19 @@ impl<'a> Wavefront<'a> {
         } else {
             true
         };
-        self.guide_vertex(slot, hit, bsdf, &leg, with_delta, bounces, stream, out);
+        if self.batch != Batch::Off
+            && let Some(parts) = bsdf.lambertian_parts()
+        {
+            // A lone Lambertian lobe has no delta lobes: `with_delta` changes nothing.
+            let albedo = leg.throughput * bsdf.diffuse;
+            out[slot as usize].1.albedo = albedo;
+            let guide = Guide { leg, albedo, bounces, entry: stream };
+            let budget = Budget { mitsuba: params.max_depth.is_some(), rr_start: params.rr_start };
+            let v = DiffuseVertex::guide(index, guide, parts, &self.frame.lights, self.world, budget, params.filtered);
+            self.q.diffuse.push(v);
+        } else {
+            self.guide_vertex(slot, hit, bsdf, &leg, with_delta, bounces, stream, out);
+        }
         out[slot as usize].1.guide = Some(GuideGeometry { normal: bsdf.normal, depth: leg.depth });
     }
 
@@ -426,7 +439,7 @@ impl<'a> Wavefront<'a> {
             && let Some(parts) = bsdf.lambertian_parts()
         {
             let budget = Budget { mitsuba: params.max_depth.is_some(), rr_start: params.rr_start };
-            self.q.diffuse.push(DiffuseVertex::new(index, path, &leg, parts, lights, self.world, budget));
+            self.q.diffuse.push(DiffuseVertex::tail(index, path, &leg, parts, lights, self.world, budget));
             return;
         }
         self.continue_tail(path, leg, hit, bsdf);
@@ -475,8 +488,10 @@ impl<'a> Wavefront<'a> {
     }
 
     /// The round's queued Lambertian vertices (`paths[v.index]`, `hits[v.index]`): their
-    /// shadow rays and next paths queued in their order, as `continue_tail` would have.
-    fn shade_lambertian(&mut self, paths: &[Path], hits: &[Option<SurfaceHit>]) {
+    /// shadow rays, next paths and new tails queued in their order, as `continue_tail` and
+    /// `guide_vertex` would have. `out`: the camera samples (the scalar oracle's guide vertices
+    /// write their albedo again, the same value).
+    fn shade_lambertian(&mut self, paths: &[Path], hits: &[Option<SurfaceHit>], out: &mut [(Vec2, CameraSample)]) {
         if self.q.diffuse.is_empty() {
             return;
         }
@@ -484,8 +499,13 @@ impl<'a> Wavefront<'a> {
         if self.batch == Batch::Scalar {
             for v in &vertices {
                 let path = &paths[v.index as usize];
-                if let (Leg::Tail(leg), Some(hit)) = (path.leg, &hits[v.index as usize]) {
-                    self.continue_tail(path, leg, hit, &v.bsdf());
+                let Some(hit) = &hits[v.index as usize] else { continue };
+                match (&v.kind, path.leg) {
+                    (Kind::Tail, Leg::Tail(leg)) => self.continue_tail(path, leg, hit, &v.bsdf()),
+                    (Kind::Guide(g), _) => {
+                        self.guide_vertex(path.slot, hit, &v.bsdf(), &g.leg, true, g.bounces, g.entry, out);
+                    }
+                    _ => {}
                 }
             }
         } else {
@@ -493,24 +513,54 @@ impl<'a> Wavefront<'a> {
             diffuse8::shade(paths, hits, &vertices, &mut results);
             for (v, r) in vertices.iter().zip(&results) {
                 let path = &paths[v.index as usize];
-                let (Leg::Tail(leg), Some(hit)) = (path.leg, &hits[v.index as usize]) else { continue };
-                if let Some((ray, rest)) = r.shadow {
-                    self.counts.shadow += 1;
-                    let (direct, indirect) = (Rgb::ZERO, Rgb::ZERO);
-                    self.q.shadows.push(Shadow { ray, slot: 0, tail: leg.tail, rest, direct, indirect });
+                let Some(hit) = &hits[v.index as usize] else { continue };
+                match (&v.kind, path.leg) {
+                    (Kind::Tail, Leg::Tail(leg)) => self.tail_result(path, leg, hit, v, r),
+                    (Kind::Guide(g), _) => self.guide_result(path.slot, hit, g, v, r),
+                    _ => {}
                 }
-                let Some((ray, beta, pdf)) = r.next else {
-                    self.q.ended.push(leg.tail);
-                    continue;
-                };
-                let arrival = Arrival { pdf, delta: false, after_guide: false, from: hit.position };
-                let leg = TailLeg { beta, bounce: leg.bounce + 1, arrival, ..leg };
-                self.q.next.push(Path { slot: path.slot, ray, stream: v.stream, leg: Leg::Tail(leg) });
             }
             self.q.diffuse_out = results;
         }
         vertices.clear();
         self.q.diffuse = vertices;
+    }
+
+    /// A tail vertex's lanes answer queued as `continue_tail` queues it.
+    fn tail_result(&mut self, path: &Path, leg: TailLeg, hit: &SurfaceHit, v: &DiffuseVertex, r: &DiffuseResult) {
+        if let Some((ray, c, _)) = r.shadow {
+            self.counts.shadow += 1;
+            let (direct, indirect) = (Rgb::ZERO, Rgb::ZERO);
+            self.q.shadows.push(Shadow { ray, slot: 0, tail: leg.tail, rest: leg.beta * c, direct, indirect });
+        }
+        let Some((ray, beta, pdf, _)) = r.next else {
+            self.q.ended.push(leg.tail);
+            return;
+        };
+        let arrival = Arrival { pdf, delta: false, after_guide: false, from: hit.position };
+        let leg = TailLeg { beta, bounce: leg.bounce + 1, arrival, ..leg };
+        self.q.next.push(Path { slot: path.slot, ray, stream: v.stream, leg: Leg::Tail(leg) });
+    }
+
+    /// A guide vertex's lanes answer queued as `guide_vertex` queues it.
+    fn guide_result(&mut self, slot: u32, hit: &SurfaceHit, g: &Guide, v: &DiffuseVertex, r: &DiffuseResult) {
+        let params = self.frame.params;
+        let (throughput, trace) = (g.leg.throughput, g.leg.mode == IndirectMode::Trace);
+        if let Some((ray, c, diffuse)) = r.shadow {
+            self.counts.shadow += 1;
+            // The filtered part of the direct light leaves the unfiltered sum.
+            let filtered = if params.filter_area_direct { diffuse } else { Rgb::ZERO };
+            let direct = throughput * c - g.albedo * filtered;
+            let indirect = if trace { filtered } else { Rgb::ZERO };
+            self.q.shadows.push(Shadow { ray, slot, tail: NO_TAIL, rest: direct, direct, indirect });
+        }
+        if let Some((ray, _, pdf, shape)) = r.next {
+            let mitsuba = params.max_depth.is_some() && !params.filtered;
+            let arrival = Arrival { pdf, delta: false, after_guide: !mitsuba, from: hit.position };
+            let to_rest = throughput * (Rgb::ZERO / pdf);
+            let tail = Tail { slot, li: Rgb::ZERO, clamp: true, to_rest, to_indirect: shape / pdf };
+            self.start_tail(tail, ray, v.stream, (1, g.bounces), arrival);
+        }
     }
 
     /// Next-event estimation at a vertex: its shadow rays queued with what each adds.
