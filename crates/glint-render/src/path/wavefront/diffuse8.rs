@@ -10,9 +10,9 @@
 //! 1. **gather**: each lane's hit, BSDF, path state and light choice into lanes;
 //! 2. **lanes**: the light sample's point, direction, pdf and shadow ray
 //!    ([`crate::path::lights::AreaChoice::sample_from`]), the BSDF's value and pdf there, the
-//!    power heuristic, the cosine-weighted bounce (its disc point is drawn per lane: `sin` and
-//!    `cos` stay libm's), its frame (Duff et al. 2017), weight and Russian roulette, and both
-//!    rays' origins ([`RayOrigins8`]);
+//!    power heuristic, the cosine-weighted bounce (the concentric disc with
+//!    [`glint_core::sampling::sin_cos_quarter`]'s polynomials), its frame (Duff et al.
+//!    2017), weight and Russian roulette, and both rays' origins ([`RayOrigins8`]);
 //! 3. **scatter**: lane by lane, the shadow ray queued and the path continued or ended, in
 //!    the order the scalar code would have queued them.
 //!
@@ -31,9 +31,9 @@ use crate::world::{SurfaceHit, World};
 use glint_accel::batch::RayOrigins8;
 use glint_accel::lanes::{F8, Isa, LANES, LaneKernel, M8, V8, dispatch};
 use glint_core::random::SampleStream;
-use glint_core::sampling::sample_disc_concentric;
+use glint_core::sampling::{COS_QUARTER, SIN_QUARTER};
 use glint_core::{Ray, Rgb, Vec2, Vec3};
-use std::f32::consts::FRAC_1_PI;
+use std::f32::consts::{FRAC_1_PI, FRAC_PI_4};
 
 /// A vertex on a Lambertian surface, its random numbers drawn: one lane's input.
 #[derive(Clone, Copy, Debug)]
@@ -50,8 +50,9 @@ pub(super) struct DiffuseVertex {
     pub light: Option<AreaChoice>,
     /// The light sample is weighed against BSDF sampling (power heuristic).
     pub mis: bool,
-    /// The bounce's point on the unit disc; `None` where the path ends after its light sample.
-    pub disc: Option<Vec2>,
+    /// The bounce's number (the cosine-weighted direction's); `None` where the path ends
+    /// after its light sample.
+    pub bounce: Option<Vec2>,
     /// Russian roulette's number, where the next vertex is past `rr_start`.
     pub rr: Option<f32>,
     /// The path's stream after these draws.
@@ -111,16 +112,16 @@ impl DiffuseVertex {
             let u = stream.next_2d();
             light = lights.choose_area(world, u_choice, u);
         }
-        let (mut disc, mut rr) = (None, None);
+        let (mut bounce, mut rr) = (None, None);
         if leg.bounce < leg.max_bounces + u32::from(budget.mitsuba) {
             // The lobe's number: a lone Lambertian lobe is chosen whatever it is.
             let _ = stream.next_1d();
-            disc = Some(sample_disc_concentric(stream.next_2d()));
+            bounce = Some(stream.next_2d());
             if leg.bounce + 1 > budget.rr_start {
                 rr = Some(stream.next_1d());
             }
         }
-        DiffuseVertex { index, kind: Kind::Tail, diffuse, normal, geometric, light, mis, disc, rr, stream }
+        DiffuseVertex { index, kind: Kind::Tail, diffuse, normal, geometric, light, mis, bounce, rr, stream }
     }
 
     /// The guide vertex of path `index` (`filtered`: the frame is filtered), its numbers
@@ -144,13 +145,13 @@ impl DiffuseVertex {
         let u_choice = stream.next_1d();
         let u = stream.next_2d();
         let light = lights.choose_area(world, u_choice, u);
-        let mut disc = None;
+        let mut bounce = None;
         if trace && (guide.bounces > 0 || mitsuba) {
             let _ = stream.next_1d();
-            disc = Some(sample_disc_concentric(stream.next_2d()));
+            bounce = Some(stream.next_2d());
         }
         let kind = Kind::Guide(guide);
-        DiffuseVertex { index, kind, diffuse, normal, geometric, light, mis: mitsuba, disc, rr: None, stream }
+        DiffuseVertex { index, kind, diffuse, normal, geometric, light, mis: mitsuba, bounce, rr: None, stream }
     }
 
     /// The BSDF the scalar code shades this vertex with.
@@ -224,7 +225,7 @@ struct Lanes<I: Isa> {
     emission: V8<I>,
     mis: M8<I>,
     bounce: M8<I>,
-    disc: [F8<I>; 2],
+    u_bounce: [F8<I>; 2],
     rr: M8<I>,
     u_rr: F8<I>,
 }
@@ -250,7 +251,7 @@ fn gather<I: Isa>(chunk: &[DiffuseVertex], paths: &[Path], hits: &[Option<Surfac
         emission: zero3,
         mis: M8::none_set(),
         bounce: M8::none_set(),
-        disc: [zero; 2],
+        u_bounce: [zero; 2],
         rr: M8::none_set(),
         u_rr: zero,
     };
@@ -288,10 +289,10 @@ fn gather<I: Isa>(chunk: &[DiffuseVertex], paths: &[Path], hits: &[Option<Surfac
         if v.mis {
             mis |= bit;
         }
-        if let Some(d) = v.disc {
+        if let Some(u) = v.bounce {
             bounce |= bit;
-            l.disc[0][i] = d.x;
-            l.disc[1][i] = d.y;
+            l.u_bounce[0][i] = u.x;
+            l.u_bounce[1][i] = u.y;
         }
         if let Some(u) = v.rr {
             rr |= bit;
@@ -317,6 +318,33 @@ struct Shaded<I: Isa> {
     next_beta: V8<I>,
     next_pdf: F8<I>,
     next_shape: F8<I>,
+}
+
+/// [`glint_core::sampling::sin_cos_quarter`] in lanes, operation for operation.
+#[inline(always)]
+fn sin_cos_quarter8<I: Isa>(x: F8<I>) -> (F8<I>, F8<I>) {
+    let z = x * x;
+    let [s1, s2, s3, s4] = SIN_QUARTER.map(F8::splat);
+    let [c1, c2, c3, c4, c5] = COS_QUARTER.map(F8::splat);
+    let sin = x + x * z * (s1 + z * (s2 + z * (s3 + z * s4)));
+    let cos = F8::one() + z * (c1 + z * (c2 + z * (c3 + z * (c4 + z * c5))));
+    (sin, cos)
+}
+
+/// `glint_core::sampling::sample_disc_concentric` in lanes, operation for operation (both
+/// quotients are formed; each lane keeps its branch's).
+#[inline(always)]
+fn disc8<I: Isa>(u: [F8<I>; 2]) -> [F8<I>; 2] {
+    let (zero, one) = (F8::zero(), F8::one());
+    let two = F8::splat(2.0);
+    let (ox, oy) = (u[0] * two - one, u[1] * two - one);
+    let centre = ox.eq(zero) & oy.eq(zero);
+    let x_ring = ox.abs().gt(oy.abs());
+    let (s, c) = sin_cos_quarter8(F8::splat(FRAC_PI_4) * F8::select(x_ring, oy / ox, ox / oy));
+    let r = F8::select(x_ring, ox, oy);
+    let dx = F8::select(x_ring, c, s) * r;
+    let dy = F8::select(x_ring, s, c) * r;
+    [F8::select(centre, zero, dx), F8::select(centre, zero, dy)]
 }
 
 /// `v / s` per component (glam's `Vec3 / f32`).
@@ -388,7 +416,7 @@ fn shade8<I: Isa>(l: &Lanes<I>) -> Shaded<I> {
     let shadow_diffuse = V8::select(pdf_light.gt(zero), radiance.scale(w * shape), V8::zero());
 
     // The bounce: `sample_cosine_hemisphere` in `Frame::from_z(normal)`.
-    let [dx, dy] = l.disc;
+    let [dx, dy] = disc8(l.u_bounce);
     let dz = (one - (dx * dx + dy * dy)).max(zero).sqrt();
     let ns = l.normal;
     let sign = one.copysign(ns.z);
@@ -435,5 +463,30 @@ fn scatter<I: Isa>(s: &Shaded<I>, len: usize, out: &mut Vec<DiffuseResult>) {
             (ray, s.next_beta.lane(i), s.next_pdf[i], s.next_shape[i])
         });
         out.push(DiffuseResult { shadow, next });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glint_accel::lanes::Sse;
+    use glint_core::random::SampleStream;
+    use glint_core::sampling::sample_disc_concentric;
+
+    /// Eight disc points in lanes are the scalar mapping's bits, corners and centre included.
+    #[test]
+    fn eight_disc_points_are_the_scalar_points() {
+        let special = [0.0, 0.5, 1.0 - f32::EPSILON / 2.0, 0.25, 0.75, 0.5 + f32::EPSILON, 0.125, 0.875];
+        let mut s = SampleStream::new(1, 0, 9);
+        for round in 0..4000 {
+            let u: [Vec2; LANES] = std::array::from_fn(|i| {
+                if round < 8 { Vec2::new(special[i], special[(i + round) % 8]) } else { s.next_2d() }
+            });
+            let got = disc8::<Sse>([F8::from_fn(|i| u[i].x), F8::from_fn(|i| u[i].y)]);
+            for (i, u) in u.iter().enumerate() {
+                let want = sample_disc_concentric(*u);
+                assert_eq!((got[0][i].to_bits(), got[1][i].to_bits()), (want.x.to_bits(), want.y.to_bits()), "{u}");
+            }
+        }
     }
 }
