@@ -166,6 +166,13 @@ impl SampleStream {
         self.dimension = d;
         self
     }
+
+    /// The dimension the next draw reads (a stream is its first dimension's stream
+    /// `at_dimension` this).
+    #[must_use]
+    pub fn dimension(&self) -> u64 {
+        self.dimension
+    }
 }
 
 /// A uniform float in [0, 1) from the top 24 bits of a 32-bit value.

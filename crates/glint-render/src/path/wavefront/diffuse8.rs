@@ -23,10 +23,9 @@
 //! `WavefrontScalar` kernel, which sends the same queue through that scalar code, is the
 //! oracle (tests/path.rs compares the two pictures bit for bit).
 
-use super::{CameraLeg, Path, TailLeg};
+use super::{Path, TailLeg};
 use crate::path::bsdf::Bsdf;
-use crate::path::integrator::IndirectMode;
-use crate::path::lights::{AreaChoice, LightSet, SHADOW_SHORT};
+use crate::path::lights::{LightSet, SHADOW_SHORT};
 use crate::world::{SurfaceHit, World};
 use glint_accel::batch::RayOrigins8;
 use glint_accel::lanes::{F8, Isa, LANES, LaneKernel, M8, V8, dispatch};
@@ -45,9 +44,8 @@ pub(super) struct DiffuseVertex {
     pub diffuse: Rgb,
     pub normal: Vec3,
     pub geometric: Vec3,
-    /// The light sample's point; `None` where the vertex samples no light or the choice
-    /// found none.
-    pub light: Option<AreaChoice>,
+    /// The light sample's numbers (choice, point); `None` where the vertex samples no light.
+    pub light: Option<(f32, Vec2)>,
     /// The light sample is weighed against BSDF sampling (power heuristic).
     pub mis: bool,
     /// The bounce's number (the cosine-weighted direction's); `None` where the path ends
@@ -55,8 +53,10 @@ pub(super) struct DiffuseVertex {
     pub bounce: Option<Vec2>,
     /// Russian roulette's number, where the next vertex is past `rr_start`.
     pub rr: Option<f32>,
-    /// The path's stream after these draws.
-    pub stream: SampleStream,
+    /// The dimension of the path's stream after these draws (the vertex is ~120 bytes, not
+    /// ~250 with a whole stream and a light choice: queued and gathered, the larger one's
+    /// copies stalled on store forwarding).
+    pub dimension: u64,
 }
 
 /// Which vertex of its camera sample.
@@ -68,14 +68,16 @@ pub(super) enum Kind {
     Guide(Guide),
 }
 
-/// A guide vertex's state: its camera chain, the albedo it showed, its tail's last
-/// light-sampling vertex, and its stream as `guide_vertex` receives it (the oracle's).
+/// A guide vertex's state: its camera chain's throughput, the albedo it showed, its tail's
+/// last light-sampling vertex, whether it traces its indirect light, and the dimension its
+/// stream is at when `guide_vertex` receives it (the oracle's).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Guide {
-    pub leg: CameraLeg,
+    pub throughput: Rgb,
     pub albedo: Rgb,
     pub bounces: u32,
-    pub entry: SampleStream,
+    pub trace: bool,
+    pub entry: u64,
 }
 
 /// How the path budget treats a vertex (the scalar `shade_tail`'s reading of its
@@ -93,15 +95,7 @@ impl DiffuseVertex {
     /// (light choice and point, then lobe and direction, then the roulette's), so the stream
     /// it carries on is the scalar code's.
     #[inline]
-    pub fn tail(
-        index: u32,
-        path: &Path,
-        leg: &TailLeg,
-        parts: (Rgb, Vec3, Vec3),
-        lights: &LightSet,
-        world: &World,
-        budget: Budget,
-    ) -> DiffuseVertex {
+    pub fn tail(index: u32, path: &Path, leg: &TailLeg, parts: (Rgb, Vec3, Vec3), budget: Budget) -> DiffuseVertex {
         let (diffuse, normal, geometric) = parts;
         let mut stream = path.stream;
         let (mut light, mut mis) = (None, false);
@@ -109,8 +103,7 @@ impl DiffuseVertex {
             // MIS against BSDF sampling, except at the last vertex (its BSDF ray is not traced).
             mis = leg.bounce < leg.max_bounces || budget.mitsuba;
             let u_choice = stream.next_1d();
-            let u = stream.next_2d();
-            light = lights.choose_area(world, u_choice, u);
+            light = Some((u_choice, stream.next_2d()));
         }
         let (mut bounce, mut rr) = (None, None);
         if leg.bounce < leg.max_bounces + u32::from(budget.mitsuba) {
@@ -121,37 +114,39 @@ impl DiffuseVertex {
                 rr = Some(stream.next_1d());
             }
         }
-        DiffuseVertex { index, kind: Kind::Tail, diffuse, normal, geometric, light, mis, bounce, rr, stream }
+        let dimension = stream.dimension();
+        DiffuseVertex { index, kind: Kind::Tail, diffuse, normal, geometric, light, mis, bounce, rr, dimension }
     }
 
     /// The guide vertex of path `index` (`filtered`: the frame is filtered), its numbers
-    /// drawn from `guide.entry` in `guide_vertex`'s order: the light sample's, then, where it
-    /// starts a traced tail, the bounce's.
+    /// drawn from `stream` (the path's at `guide.entry`) in `guide_vertex`'s order: the light
+    /// sample's, then, where it starts a traced tail, the bounce's.
     #[inline]
     pub fn guide(
         index: u32,
         guide: Guide,
         parts: (Rgb, Vec3, Vec3),
-        lights: &LightSet,
-        world: &World,
+        mut stream: SampleStream,
         budget: Budget,
         filtered: bool,
     ) -> DiffuseVertex {
         let (diffuse, normal, geometric) = parts;
-        let mut stream = guide.entry;
-        let trace = guide.leg.mode == IndirectMode::Trace;
         // Mitsuba's budget weighs the direct light against the BSDF sample.
         let mitsuba = budget.mitsuba && !filtered;
         let u_choice = stream.next_1d();
-        let u = stream.next_2d();
-        let light = lights.choose_area(world, u_choice, u);
+        let light = Some((u_choice, stream.next_2d()));
         let mut bounce = None;
-        if trace && (guide.bounces > 0 || mitsuba) {
+        if guide.trace && (guide.bounces > 0 || mitsuba) {
             let _ = stream.next_1d();
             bounce = Some(stream.next_2d());
         }
-        let kind = Kind::Guide(guide);
-        DiffuseVertex { index, kind, diffuse, normal, geometric, light, mis: mitsuba, bounce, rr: None, stream }
+        let (kind, dimension) = (Kind::Guide(guide), stream.dimension());
+        DiffuseVertex { index, kind, diffuse, normal, geometric, light, mis: mitsuba, bounce, rr: None, dimension }
+    }
+
+    /// Its path's stream after its draws.
+    pub fn stream(&self, path: &Path) -> SampleStream {
+        path.stream.at_dimension(self.dimension)
     }
 
     /// The BSDF the scalar code shades this vertex with.
@@ -175,16 +170,19 @@ pub(super) struct DiffuseResult {
 /// tail leg with a hit) eight at a time with the best instruction set this CPU has;
 /// `out[i]` is vertex `i`'s result.
 pub(super) fn shade(
+    (world, lights): (&World, &LightSet),
     paths: &[Path],
     hits: &[Option<SurfaceHit>],
     vertices: &[DiffuseVertex],
     out: &mut Vec<DiffuseResult>,
 ) {
     out.clear();
-    dispatch(Kernel { paths, hits, vertices, out }, false);
+    dispatch(Kernel { world, lights, paths, hits, vertices, out }, false);
 }
 
 struct Kernel<'a> {
+    world: &'a World,
+    lights: &'a LightSet,
     paths: &'a [Path],
     hits: &'a [Option<SurfaceHit>],
     vertices: &'a [DiffuseVertex],
@@ -197,7 +195,7 @@ impl LaneKernel for Kernel<'_> {
     #[inline(always)]
     fn run<I: Isa>(self) {
         for chunk in self.vertices.chunks(LANES) {
-            let lanes = gather::<I>(chunk, self.paths, self.hits);
+            let lanes = gather::<I>(chunk, self.paths, self.hits, (self.world, self.lights));
             let shaded = shade8(&lanes);
             scatter(&shaded, chunk.len(), self.out);
         }
@@ -231,7 +229,12 @@ struct Lanes<I: Isa> {
 }
 
 #[inline(always)]
-fn gather<I: Isa>(chunk: &[DiffuseVertex], paths: &[Path], hits: &[Option<SurfaceHit>]) -> Lanes<I> {
+fn gather<I: Isa>(
+    chunk: &[DiffuseVertex],
+    paths: &[Path],
+    hits: &[Option<SurfaceHit>],
+    (world, lights): (&World, &LightSet),
+) -> Lanes<I> {
     let (zero, zero3) = (F8::zero(), V8::zero());
     let mut l = Lanes {
         position: zero3,
@@ -272,7 +275,8 @@ fn gather<I: Isa>(chunk: &[DiffuseVertex], paths: &[Path], hits: &[Option<Surfac
         l.normal.set(i, v.normal);
         l.geometric.set(i, v.geometric);
         l.diffuse.set(i, v.diffuse);
-        if let Some(c) = &v.light {
+        // The light's triangle and point, as `LightSet::sample` chooses them.
+        if let Some(c) = v.light.and_then(|(u_choice, u)| lights.choose_area(world, u_choice, u)) {
             light |= bit;
             if c.two_sided {
                 two_sided |= bit;

@@ -325,10 +325,10 @@ impl<'a> Wavefront<'a> {
             // A lone Lambertian lobe has no delta lobes: `with_delta` changes nothing.
             let albedo = leg.throughput * bsdf.diffuse;
             out[slot as usize].1.albedo = albedo;
-            let guide = Guide { leg, albedo, bounces, entry: stream };
+            let (throughput, trace) = (leg.throughput, leg.mode == IndirectMode::Trace);
+            let guide = Guide { throughput, albedo, bounces, trace, entry: stream.dimension() };
             let budget = Budget { mitsuba: params.max_depth.is_some(), rr_start: params.rr_start };
-            let v = DiffuseVertex::guide(index, guide, parts, &self.frame.lights, self.world, budget, params.filtered);
-            self.q.diffuse.push(v);
+            self.q.diffuse.push(DiffuseVertex::guide(index, guide, parts, stream, budget, params.filtered));
         } else {
             self.guide_vertex(slot, hit, bsdf, &leg, with_delta, bounces, stream, out);
         }
@@ -439,7 +439,7 @@ impl<'a> Wavefront<'a> {
             && let Some(parts) = bsdf.lambertian_parts()
         {
             let budget = Budget { mitsuba: params.max_depth.is_some(), rr_start: params.rr_start };
-            self.q.diffuse.push(DiffuseVertex::tail(index, path, &leg, parts, lights, self.world, budget));
+            self.q.diffuse.push(DiffuseVertex::tail(index, path, &leg, parts, budget));
             return;
         }
         self.continue_tail(path, leg, hit, bsdf);
@@ -502,21 +502,23 @@ impl<'a> Wavefront<'a> {
                 let Some(hit) = &hits[v.index as usize] else { continue };
                 match (&v.kind, path.leg) {
                     (Kind::Tail, Leg::Tail(leg)) => self.continue_tail(path, leg, hit, &v.bsdf()),
-                    (Kind::Guide(g), _) => {
-                        self.guide_vertex(path.slot, hit, &v.bsdf(), &g.leg, true, g.bounces, g.entry, out);
+                    (Kind::Guide(g), Leg::Camera(leg)) => {
+                        // `guide_vertex` reads the leg's throughput and mode, as queued.
+                        let stream = path.stream.at_dimension(g.entry);
+                        self.guide_vertex(path.slot, hit, &v.bsdf(), &leg, true, g.bounces, stream, out);
                     }
                     _ => {}
                 }
             }
         } else {
             let mut results = std::mem::take(&mut self.q.diffuse_out);
-            diffuse8::shade(paths, hits, &vertices, &mut results);
+            diffuse8::shade((self.world, &self.frame.lights), paths, hits, &vertices, &mut results);
             for (v, r) in vertices.iter().zip(&results) {
                 let path = &paths[v.index as usize];
                 let Some(hit) = &hits[v.index as usize] else { continue };
                 match (&v.kind, path.leg) {
                     (Kind::Tail, Leg::Tail(leg)) => self.tail_result(path, leg, hit, v, r),
-                    (Kind::Guide(g), _) => self.guide_result(path.slot, hit, g, v, r),
+                    (Kind::Guide(g), _) => self.guide_result(path, hit, g, v, r),
                     _ => {}
                 }
             }
@@ -539,13 +541,13 @@ impl<'a> Wavefront<'a> {
         };
         let arrival = Arrival { pdf, delta: false, after_guide: false, from: hit.position };
         let leg = TailLeg { beta, bounce: leg.bounce + 1, arrival, ..leg };
-        self.q.next.push(Path { slot: path.slot, ray, stream: v.stream, leg: Leg::Tail(leg) });
+        self.q.next.push(Path { slot: path.slot, ray, stream: v.stream(path), leg: Leg::Tail(leg) });
     }
 
     /// A guide vertex's lanes answer queued as `guide_vertex` queues it.
-    fn guide_result(&mut self, slot: u32, hit: &SurfaceHit, g: &Guide, v: &DiffuseVertex, r: &DiffuseResult) {
+    fn guide_result(&mut self, path: &Path, hit: &SurfaceHit, g: &Guide, v: &DiffuseVertex, r: &DiffuseResult) {
         let params = self.frame.params;
-        let (throughput, trace) = (g.leg.throughput, g.leg.mode == IndirectMode::Trace);
+        let (slot, throughput, trace) = (path.slot, g.throughput, g.trace);
         if let Some((ray, c, diffuse)) = r.shadow {
             self.counts.shadow += 1;
             // The filtered part of the direct light leaves the unfiltered sum.
@@ -559,7 +561,7 @@ impl<'a> Wavefront<'a> {
             let arrival = Arrival { pdf, delta: false, after_guide: !mitsuba, from: hit.position };
             let to_rest = throughput * (Rgb::ZERO / pdf);
             let tail = Tail { slot, li: Rgb::ZERO, clamp: true, to_rest, to_indirect: shape / pdf };
-            self.start_tail(tail, ray, v.stream, (1, g.bounces), arrival);
+            self.start_tail(tail, ray, v.stream(path), (1, g.bounces), arrival);
         }
     }
 
