@@ -164,8 +164,9 @@ impl Bsdf {
 
     /// `(ρd, shading normal, geometric normal)` when this BSDF is a Lambertian lobe alone,
     /// chosen with probability 1: every query then equals
-    /// [`Bsdf::diffuse_with_geometric`]'s of those three (the batched path vertices shade it).
-    #[inline]
+    /// [`Bsdf::diffuse_with_geometric`]'s of those three (what `integrator::lambertian_parts_at`
+    /// finds without building the BSDF; a test holds the two together).
+    #[cfg(test)]
     pub fn lambertian_parts(&self) -> Option<(Rgb, Vec3, Vec3)> {
         let alone = self.physical.is_none()
             && self.p_diffuse == 1.0

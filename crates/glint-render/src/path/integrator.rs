@@ -21,6 +21,7 @@ use super::lights::{LightSet, power_heuristic};
 use super::shading::{Physical, lambertian_at};
 use crate::stats::RayCounts;
 use crate::world::{SurfaceHit, World};
+use glint_core::colour::luminance;
 use glint_core::random::SampleStream;
 use glint_core::{Ray, Rgb, Vec3};
 
@@ -205,6 +206,39 @@ pub(super) fn bsdf_at(world: &World, hit: &SurfaceHit, dir: Vec3) -> (Bsdf, Rgb)
         }
     }
     (Bsdf::new(m, world.albedo(hit), wo, ns, ng, entering), emitted)
+}
+
+/// `(ρd, shading normal, geometric normal)` of the BSDF [`bsdf_at`] builds at `hit` (seen
+/// along `dir`) where that BSDF is a lone Lambertian lobe, without building it: Mitsuba's
+/// `diffuse` read by `lambertian_at`, and the Phong reading of a material with no specular
+/// lobe, no mirror, no glass and no Fresnel term. `Some` only where
+/// `bsdf_at(..).0.lambertian_parts()` is `Some`, with its values (the wavefront queues these
+/// vertices for shading in lanes; building the ~500-byte BSDF and reading three fields back
+/// stalled on store forwarding). `None` is also allowed where it would be `Some`.
+#[inline]
+pub(super) fn lambertian_parts_at(world: &World, hit: &SurfaceHit, dir: Vec3) -> Option<(Rgb, Vec3, Vec3)> {
+    let m = world.material(hit.material);
+    if let Some(root) = m.bsdf {
+        let (rho, normal) = lambertian_at(world, hit, dir, root)?;
+        // `Bsdf::lambertian` chooses its lobe with probability 1 where it reflects anything.
+        return (rho.max_element() > 0.0).then_some((rho, normal, normal));
+    }
+    let plain = m.reflection_f0.is_none() && m.reflectivity == 0.0 && !m.is_transparent();
+    if !plain || m.specular.max(0.0) != 0.0 {
+        return None;
+    }
+    let (_, ng, ns, _) = orient(hit, dir);
+    // `Bsdf::new` with no mirror, glass or glossy lobe: the Phong weight 1, the diffuse
+    // coefficient scaled down where it would reflect more than it receives.
+    let albedo = world.albedo(hit);
+    let mut kd = m.diffuse.max(0.0);
+    let total = kd * albedo.max_element();
+    if total > 1.0 {
+        kd /= total;
+    }
+    let diffuse = Rgb::ONE * albedo * kd;
+    let wd = luminance(diffuse);
+    (wd > 0.0 && wd.is_finite()).then_some((diffuse, ns, ng))
 }
 
 /// The light samples of next-event estimation at `hit`: every delta light of
@@ -490,6 +524,75 @@ mod tests {
     use glint_core::{Affine3A, Vec2};
     use glint_scene::bsdf::{BsdfKind, Tex};
     use glint_scene::{Material, Object, Scene, Shape};
+
+    /// `lambertian_parts_at` finds a lone Lambertian lobe exactly where `bsdf_at` builds one,
+    /// with its bits, and nowhere else: Phong materials with and without specular, mirror,
+    /// glass, Fresnel and emission, an albedo that scales the diffuse coefficient down, Mitsuba's
+    /// `diffuse` (black or not, one- and two-sided) and a model that is not diffuse; hit from
+    /// outside and inside.
+    #[test]
+    fn lambertian_parts_are_those_of_the_built_bsdf() {
+        let phong = |diffuse: f32, colour: f32| Material {
+            diffuse,
+            colour: Rgb::splat(colour),
+            specular: 0.0,
+            ..Material::default()
+        };
+        let materials = vec![
+            phong(0.8, 0.6),
+            phong(1.0, 1.0),
+            phong(1.5, 0.9), // K_d · colour above 1: scaled down
+            phong(0.0, 0.7), // black: no lobe
+            Material { specular: 0.3, ..phong(0.6, 0.5) },
+            Material { reflectivity: 0.2, ..phong(0.6, 0.5) },
+            Material { transparency: 0.5, ior: 1.5, ..phong(0.4, 0.5) },
+            Material { reflection_f0: Some(Rgb::splat(0.04)), ..phong(0.6, 0.5) },
+            Material { emission: Rgb::splat(2.0), ..phong(0.6, 0.5) },
+            Material { bsdf: Some(0), ..Material::default() },
+            Material { bsdf: Some(1), ..Material::default() },
+            Material { bsdf: Some(2), ..Material::default() },
+            Material { bsdf: Some(3), ..Material::default() },
+        ];
+        let bsdfs = vec![
+            BsdfKind::Diffuse { reflectance: Tex::Value(Rgb::new(0.7, 0.4, 0.2)) },
+            BsdfKind::Diffuse { reflectance: Tex::Value(Rgb::ZERO) },
+            BsdfKind::TwoSided { front: 0, back: 0 },
+            BsdfKind::Conductor {
+                eta: Rgb::splat(0.2),
+                k: Rgb::splat(3.0),
+                specular_reflectance: Tex::Value(Rgb::ONE),
+            },
+        ];
+        let mut seen = [0usize; 2];
+        for (i, m) in materials.iter().enumerate() {
+            let scene = Scene {
+                materials: vec![m.clone()],
+                bsdfs: bsdfs.clone(),
+                objects: vec![Object {
+                    name: "ball".into(),
+                    shape: Shape::Sphere { centre: Vec3::ZERO, radius: 1.0 },
+                    material: 0,
+                    world_from_object: Affine3A::IDENTITY,
+                }],
+                ..Scene::default()
+            };
+            let world = World::new(scene);
+            let mut stream = SampleStream::new(4, 5, 6);
+            for k in 0..64 {
+                let d = glint_core::sampling::sample_uniform_sphere(stream.next_2d());
+                let ray = if k % 2 == 0 { Ray::new(d * 3.0, -d) } else { Ray::new(Vec3::ZERO, d) };
+                let hit = world.intersect(&ray).expect("the sphere");
+                let built = bsdf_at(&world, &hit, ray.dir).0.lambertian_parts();
+                let found = lambertian_parts_at(&world, &hit, ray.dir);
+                let bits =
+                    |p: Option<(Rgb, Vec3, Vec3)>| p.map(|(a, b, c)| [a, b, c].map(|v| v.to_array().map(f32::to_bits)));
+                assert_eq!(bits(found), bits(built), "material {i}, ray {k}");
+                seen[usize::from(found.is_some())] += 1;
+            }
+        }
+        // Both answers occur: the test is not vacuous.
+        assert!(seen[0] > 100 && seen[1] > 100, "{seen:?}");
+    }
 
     /// `lambertian_at`'s reading of Mitsuba's `diffuse` (alone, and `twosided` over two) gives
     /// the general model's answers: from in front and from behind a sphere, every query the

@@ -28,7 +28,9 @@ mod diffuse8;
 
 use super::Frame;
 use super::bsdf::Bsdf;
-use super::integrator::{Arrival, CameraSample, GuideGeometry, IndirectMode, bsdf_at, clamp_radiance, light_samples};
+use super::integrator::{
+    Arrival, CameraSample, GuideGeometry, IndirectMode, bsdf_at, clamp_radiance, lambertian_parts_at, light_samples,
+};
 use crate::stats::RayCounts;
 use crate::world::{SurfaceHit, World};
 use diffuse8::{Budget, DiffuseResult, DiffuseVertex, Guide, Kind};
@@ -283,10 +285,13 @@ impl<'a> Wavefront<'a> {
         };
         sample.covered = true;
         leg.depth = if leg.chain == 0 { self.frame.camera.depth(hit.position) } else { leg.depth + hit.t };
+        // A Lambertian guide vertex needs only three of the BSDF's fields: it is not built.
+        let lambertian =
+            if self.batch == Batch::Off { None } else { lambertian_parts_at(self.world, hit, path.ray.dir) };
         // Read in place: moving the BSDF out of the pair copied its 488 bytes (a Mitsuba
         // scene's Cornell box, whose BSDFs are the physically based model: 2–3 % faster).
-        let shaded = bsdf_at(self.world, hit, path.ray.dir);
-        let (bsdf, emission) = (&shaded.0, shaded.1);
+        let shaded = lambertian.is_none().then(|| bsdf_at(self.world, hit, path.ray.dir));
+        let emission = shaded.as_ref().map_or_else(|| self.world.emitted(hit, -path.ray.dir), |s| s.1);
         if leg.chain > 0 || !params.hide_emitters {
             sample.rest += leg.throughput * emission;
         }
@@ -301,6 +306,18 @@ impl<'a> Wavefront<'a> {
         let mut stream = path.stream;
         let u_lobe = stream.next_1d();
         let u = stream.next_2d();
+        if let Some(parts) = lambertian {
+            // A lone Lambertian lobe is never delta-dominant and has no delta lobes.
+            let albedo = leg.throughput * parts.0;
+            out[slot as usize].1.albedo = albedo;
+            let (throughput, trace) = (leg.throughput, leg.mode == IndirectMode::Trace);
+            let guide = Guide { throughput, albedo, bounces, trace, entry: stream.dimension() };
+            let budget = Budget { mitsuba: params.max_depth.is_some(), rr_start: params.rr_start };
+            self.q.diffuse.push(DiffuseVertex::guide(index, guide, parts, stream, budget, params.filtered));
+            out[slot as usize].1.guide = Some(GuideGeometry { normal: parts.1, depth: leg.depth });
+            return;
+        }
+        let Some((bsdf, _)) = shaded.as_ref() else { return };
         let with_delta = if bsdf.is_delta_dominant() {
             if u_lobe >= bsdf.p_non_delta() {
                 // Through the mirror or the glass, while the chain may grow.
@@ -319,19 +336,7 @@ impl<'a> Wavefront<'a> {
         } else {
             true
         };
-        if self.batch != Batch::Off
-            && let Some(parts) = bsdf.lambertian_parts()
-        {
-            // A lone Lambertian lobe has no delta lobes: `with_delta` changes nothing.
-            let albedo = leg.throughput * bsdf.diffuse;
-            out[slot as usize].1.albedo = albedo;
-            let (throughput, trace) = (leg.throughput, leg.mode == IndirectMode::Trace);
-            let guide = Guide { throughput, albedo, bounces, trace, entry: stream.dimension() };
-            let budget = Budget { mitsuba: params.max_depth.is_some(), rr_start: params.rr_start };
-            self.q.diffuse.push(DiffuseVertex::guide(index, guide, parts, stream, budget, params.filtered));
-        } else {
-            self.guide_vertex(slot, hit, bsdf, &leg, with_delta, bounces, stream, out);
-        }
+        self.guide_vertex(slot, hit, bsdf, &leg, with_delta, bounces, stream, out);
         out[slot as usize].1.guide = Some(GuideGeometry { normal: bsdf.normal, depth: leg.depth });
     }
 
@@ -429,20 +434,23 @@ impl<'a> Wavefront<'a> {
             self.q.ended.push(leg.tail);
             return;
         };
-        let shaded = bsdf_at(self.world, hit, path.ray.dir);
-        let (bsdf, emission) = (&shaded.0, shaded.1);
+        let lambertian =
+            if self.batch == Batch::Off { None } else { lambertian_parts_at(self.world, hit, path.ray.dir) };
+        // A Lambertian vertex needs only three of the BSDF's fields: it is not built.
+        let shaded = lambertian.is_none().then(|| bsdf_at(self.world, hit, path.ray.dir));
+        let emission = shaded.as_ref().map_or_else(|| self.world.emitted(hit, -path.ray.dir), |s| s.1);
         if emission.max_element() > 0.0 {
             let weight = leg.arrival.emission_weight(lights.pdf_surface(leg.arrival.from, path.ray.dir, hit));
             self.q.tails[leg.tail as usize].li += leg.beta * emission * weight;
         }
-        if self.batch != Batch::Off
-            && let Some(parts) = bsdf.lambertian_parts()
-        {
-            let budget = Budget { mitsuba: params.max_depth.is_some(), rr_start: params.rr_start };
-            self.q.diffuse.push(DiffuseVertex::tail(index, path, &leg, parts, budget));
-            return;
+        match (lambertian, shaded.as_ref()) {
+            (Some(parts), _) => {
+                let budget = Budget { mitsuba: params.max_depth.is_some(), rr_start: params.rr_start };
+                self.q.diffuse.push(DiffuseVertex::tail(index, path, &leg, parts, budget));
+            }
+            (None, Some((bsdf, _))) => self.continue_tail(path, leg, hit, bsdf),
+            (None, None) => {}
         }
-        self.continue_tail(path, leg, hit, bsdf);
     }
 
     /// A vertex behind a guide vertex after its emission: its light samples, its bounce.
