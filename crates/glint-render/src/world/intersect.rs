@@ -24,12 +24,14 @@ impl World {
             Some(lone) => {
                 let mut hits = [None; 8];
                 lone.bvh.intersect8(rays, &mut hits);
-                for ((o, h), r) in out.iter_mut().zip(hits).zip(rays) {
-                    *o = h.and_then(|h| {
-                        let (inst, prim) = lone.owner(h.prim);
-                        self.surface_hit(r, Found::Instance { inst, prim, u: h.u, v: h.v }, h.t)
-                    });
-                }
+                // Their surface data in lanes.
+                let found = hits.map(|h| {
+                    h.map(|hit| {
+                        let (inst, prim) = lone.owner(hit.prim);
+                        super::hits8::Found { inst, prim, hit }
+                    })
+                });
+                self.mesh_hits8(rays, &found, out);
             }
             None => {
                 for (o, r) in out.iter_mut().zip(rays) {

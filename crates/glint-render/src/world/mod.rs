@@ -19,6 +19,7 @@ mod animation;
 mod batch;
 mod emitters;
 mod hit;
+mod hits8;
 mod instances;
 mod intersect;
 mod merged;
