@@ -525,6 +525,21 @@ mod tests {
     use glint_scene::bsdf::{BsdfKind, Tex};
     use glint_scene::{Material, Object, Scene, Shape};
 
+    /// A unit sphere at the origin made of `material` (its physically based models `bsdfs`).
+    fn ball(material: Material, bsdfs: &[BsdfKind]) -> World {
+        World::new(Scene {
+            materials: vec![material],
+            bsdfs: bsdfs.to_vec(),
+            objects: vec![Object {
+                name: "ball".into(),
+                shape: Shape::Sphere { centre: Vec3::ZERO, radius: 1.0 },
+                material: 0,
+                world_from_object: Affine3A::IDENTITY,
+            }],
+            ..Scene::default()
+        })
+    }
+
     /// `lambertian_parts_at` finds a lone Lambertian lobe exactly where `bsdf_at` builds one,
     /// with its bits, and nowhere else: Phong materials with and without specular, mirror,
     /// glass, Fresnel and emission, an albedo that scales the diffuse coefficient down, Mitsuba's
@@ -565,18 +580,7 @@ mod tests {
         ];
         let mut seen = [0usize; 2];
         for (i, m) in materials.iter().enumerate() {
-            let scene = Scene {
-                materials: vec![m.clone()],
-                bsdfs: bsdfs.clone(),
-                objects: vec![Object {
-                    name: "ball".into(),
-                    shape: Shape::Sphere { centre: Vec3::ZERO, radius: 1.0 },
-                    material: 0,
-                    world_from_object: Affine3A::IDENTITY,
-                }],
-                ..Scene::default()
-            };
-            let world = World::new(scene);
+            let world = ball(m.clone(), &bsdfs);
             let mut stream = SampleStream::new(4, 5, 6);
             for k in 0..64 {
                 let d = glint_core::sampling::sample_uniform_sphere(stream.next_2d());
@@ -607,18 +611,7 @@ mod tests {
             BsdfKind::TwoSided { front: 0, back: 1 },
         ];
         for root in [0, 2] {
-            let scene = Scene {
-                materials: vec![Material { bsdf: Some(root), ..Material::default() }],
-                bsdfs: bsdfs.clone(),
-                objects: vec![Object {
-                    name: "ball".into(),
-                    shape: Shape::Sphere { centre: Vec3::ZERO, radius: 1.0 },
-                    material: 0,
-                    world_from_object: Affine3A::IDENTITY,
-                }],
-                ..Scene::default()
-            };
-            let world = World::new(scene);
+            let world = ball(Material { bsdf: Some(root), ..Material::default() }, &bsdfs);
             let mut stream = SampleStream::new(1, 2, 3);
             let (mut lit_front, mut lit_back) = (0, 0);
             for k in 0..400 {
