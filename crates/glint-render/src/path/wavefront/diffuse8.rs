@@ -3,11 +3,12 @@
 //! lights: a diffuse wall behind the guide vertex).
 //!
 //! A round's guide vertices and the vertices behind them whose BSDF is a Lambertian lobe alone
-//! ([`Bsdf::lambertian_parts`]) in a scene whose lights are all emissive triangles
+//! (`integrator::lambertian_parts_at`) in a scene whose lights are all emissive triangles
 //! ([`LightSet::area_only`]) are queued while the round is shaded ([`DiffuseVertex`]: their
-//! random numbers drawn in the scalar code's order, the light's triangle chosen), then shaded
-//! eight to a kernel call ([`shade`]), in three steps:
-//! 1. **gather**: each lane's hit, BSDF, path state and light choice into lanes;
+//! random numbers drawn in the scalar code's order), then shaded eight to a kernel call
+//! ([`shade`]), in three steps:
+//! 1. **gather**: each lane's hit, BSDF, path state and light choice (the triangle and point
+//!    `LightSet::choose_area` picks) into lanes;
 //! 2. **lanes**: the light sample's point, direction, pdf and shadow ray
 //!    ([`crate::path::lights::AreaChoice::sample_from`]), the BSDF's value and pdf there, the
 //!    power heuristic, the cosine-weighted bounce (the concentric disc with
@@ -19,9 +20,8 @@
 //! Every lane performs the scalar code's float operations in its order (no fused
 //! multiply-add; `glint_accel::lanes` guarantees each operation's bits on both instruction
 //! sets), so a lane gives the bits of `Wavefront::continue_tail` (or `guide_vertex`) on the
-//! same vertex: the
-//! `WavefrontScalar` kernel, which sends the same queue through that scalar code, is the
-//! oracle (tests/path.rs compares the two pictures bit for bit).
+//! same vertex: the `WavefrontScalar` kernel, which sends the same queue through that scalar
+//! code, is the oracle (tests/path.rs compares the two pictures bit for bit).
 
 use super::{Path, TailLeg};
 use crate::path::bsdf::Bsdf;
@@ -80,7 +80,7 @@ pub(super) struct Guide {
     pub entry: u64,
 }
 
-/// How the path budget treats a vertex (the scalar `shade_tail`'s reading of its
+/// How the path budget treats a vertex (the scalar `continue_tail`'s reading of its
 /// parameters).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Budget {
@@ -91,7 +91,7 @@ pub(super) struct Budget {
 
 impl DiffuseVertex {
     /// The vertex of `path` (its leg `leg`) at a surface whose BSDF has the Lambertian
-    /// `parts`: its numbers drawn from the path's stream in the order `shade_tail` draws them
+    /// `parts`: its numbers drawn from the path's stream in the order `continue_tail` draws them
     /// (light choice and point, then lobe and direction, then the roulette's), so the stream
     /// it carries on is the scalar code's.
     #[inline]
@@ -166,8 +166,8 @@ pub(super) struct DiffuseResult {
     pub next: Option<(Ray, Rgb, f32, f32)>,
 }
 
-/// Shade `vertices` (whose paths and hits are `paths[v.index]`, `hits[v.index]`, each a
-/// tail leg with a hit) eight at a time with the best instruction set this CPU has;
+/// Shade `vertices` (whose paths and hits are `paths[v.index]`, `hits[v.index]`, each with
+/// a hit) eight at a time with the best instruction set this CPU has;
 /// `out[i]` is vertex `i`'s result.
 pub(super) fn shade(
     (world, lights): (&World, &LightSet),

@@ -8,7 +8,9 @@
 //!    octant walks the tree with one near/far plane choice), eight rays per packet query;
 //! 2. **shade**: every hit at once — emission with its MIS weight, the BSDF, the light samples
 //!    of next-event estimation (queued as shadow rays with what each adds when unblocked), the
-//!    next direction, Russian roulette; survivors are compacted into the next round's paths;
+//!    next direction, Russian roulette; survivors are compacted into the next round's paths
+//!    (in a scene lit by emissive triangles alone, the vertices on Lambertian surfaces are
+//!    queued and shaded eight at a time in lanes: [`diffuse8`]);
 //! 3. **shadows**: the round's shadow rays binned by octant and asked as any-hit packets;
 //! 4. the paths that ended this round hand their radiance to their camera sample.
 //!
