@@ -25,6 +25,21 @@ mod stats;
 pub mod whitted;
 mod world;
 
+/// Tests only: the path mode's lanes kernels (`path/wavefront/diffuse8.rs`,
+/// `world/hits8.rs`) run on the SSE baseline even where the CPU has AVX2, for the test that
+/// demands the same bits from both (a CPU without AVX2 runs the baseline).
+#[cfg(test)]
+pub(crate) static LANES_BASELINE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Whether the path mode's lanes kernels are held to the SSE baseline (tests only).
+#[inline]
+pub(crate) fn lanes_baseline() -> bool {
+    #[cfg(test)]
+    return LANES_BASELINE.load(std::sync::atomic::Ordering::Relaxed);
+    #[cfg(not(test))]
+    false
+}
+
 pub use bands::{Hooks, Schedule};
 pub use error::RenderError;
 pub use film::{Film, FilmPixel, FilmRows, MAX_SAMPLE_RADIANCE, PathAovs, PixelRecord, SurfacePixel};

@@ -29,7 +29,7 @@ impl World {
     /// `out[i]` = the surface hit of `found[i]` (found by `rays[i]`), as
     /// `World::surface_hit` makes it.
     pub(super) fn mesh_hits8(&self, rays: &[Ray; 8], found: &[Option<Found>; 8], out: &mut [Option<SurfaceHit>; 8]) {
-        dispatch(Kernel { world: self, rays, found, out }, false);
+        dispatch(Kernel { world: self, rays, found, out }, crate::lanes_baseline());
     }
 }
 

@@ -177,7 +177,7 @@ pub(super) fn shade(
     out: &mut Vec<DiffuseResult>,
 ) {
     out.clear();
-    dispatch(Kernel { world, lights, paths, hits, vertices, out }, false);
+    dispatch(Kernel { world, lights, paths, hits, vertices, out }, crate::lanes_baseline());
 }
 
 struct Kernel<'a> {
