@@ -9,6 +9,27 @@ use common::{assert_fails_cleanly, glint, scratch, stderr};
 const PATH_CHANNELS: [&str; 7] =
     ["Direct.R", "Direct.G", "Direct.B", "Indirect.R", "Indirect.G", "Indirect.B", "SampleCount"];
 
+/// `bench path --kernel` times the batched shading against its scalar oracle in one run (a
+/// line each, in the order named); an unknown kernel name is refused, naming the choices.
+#[test]
+fn bench_path_names_its_kernels_and_refuses_unknown_ones() {
+    let dir = scratch("bench-path-kernels");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/mitsuba-cbox.toml");
+    let args = ["bench", "path", scene, "--width", "24", "--height", "16", "--frames", "2", "--kernel"];
+    let o = glint(&[&args[..], &["wavefront,wavefront-scalar"]].concat(), &dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let kernels: Vec<&str> = out
+        .lines()
+        .filter(|l| l.starts_with("path 24x16"))
+        .filter_map(|l| l.split(", ").find(|f| f.starts_with("Wavefront")))
+        .map(|f| f.split(':').next().unwrap_or(""))
+        .collect();
+    assert_eq!(kernels, ["Wavefront", "WavefrontScalar"], "{out}");
+    std::fs::write(dir.join("out.png"), b"precious").unwrap();
+    assert_fails_cleanly(&[&args[..], &["wavefront,lanes"]].concat(), "wavefront-scalar", &dir);
+}
+
 #[test]
 fn path_mode_writes_png_and_aov_exr() {
     let dir = scratch("path-render");
