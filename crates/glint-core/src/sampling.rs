@@ -9,7 +9,7 @@ use std::f32::consts::{FRAC_PI_4, PI};
 ///
 /// The angle's cosine and sine come from [`sin_cos_quarter`] (an angle within π/4 of an axis:
 /// the sine and cosine of the offset, swapped for the y axis), whose operations a batched
-/// caller can repeat in lanes for the same bits (`path/wavefront/diffuse8.rs`).
+/// caller can repeat in lanes for the same bits (`path/wavefront/phong8.rs`).
 #[inline]
 pub fn sample_disc_concentric(u: Vec2) -> Vec2 {
     let o = u * 2.0 - Vec2::ONE;

@@ -25,7 +25,7 @@ mod stats;
 pub mod whitted;
 mod world;
 
-/// Tests only: the path mode's lanes kernels (`path/wavefront/diffuse8.rs`,
+/// Tests only: the path mode's lanes kernels (`path/wavefront/phong8.rs`,
 /// `world/hits8.rs`) run on the SSE baseline even where the CPU has AVX2, for the test that
 /// demands the same bits from both (a CPU without AVX2 runs the baseline).
 #[cfg(test)]

@@ -12,7 +12,7 @@ use glint_core::{Affine3A, PixelFilter, Rgb, Vec3};
 use glint_filter::{Filter, GuidedParams};
 use glint_render::path::{PathAccumulator, PathKernel, PathSettings};
 use glint_render::{Film, World};
-use glint_scene::{Camera, Fov, Material, Object, Scene, Shape, Sky};
+use glint_scene::{Camera, Fov, Light, Material, Object, Scene, Shape, Sky};
 use std::sync::Arc;
 
 fn object(shape: Shape, material: usize) -> Object {
@@ -512,15 +512,17 @@ fn wavefront_and_recursive_tracers_agree_without_delta_lobes() {
     }
 }
 
-/// In a scene lit by emissive triangles alone, the wavefront shades the vertices on
-/// Lambertian surfaces behind the guide vertex eight at a time in lanes; `WavefrontScalar`
-/// sends the same vertices, in the same order, through the scalar code. Every lane performs
-/// the scalar operations in their order, so the two pictures are the same bit for bit:
-/// Phong's diffuse-only reading (the Cornell box of scenes/), Mitsuba's `diffuse` (its XML
-/// box), smooth shading normals (the dragon made diffuse), surfaces of both kinds in one round
-/// (the glossy dragon), roulette, Mitsuba's budget, both samplers, guided frames.
+/// The wavefront shades the vertices on surfaces without delta lobes eight at a time in
+/// lanes; `WavefrontScalar` sends the same vertices, in the same order, through the scalar
+/// code. Every lane performs the scalar operations in their order (libm's `powf`, `sin` and
+/// `cos` lane by lane), so the two pictures are the same bit for bit: Phong's diffuse-only
+/// reading (the Cornell box of scenes/), Mitsuba's `diffuse` (its XML box), smooth shading
+/// normals (the dragon made diffuse), glossy lobes beside diffuse ones (the glossy dragon; a
+/// glossy-only dragon with a high exponent), emissive triangles with a sky and two suns in one
+/// choice, Sponza under its sun and sky (every surface glossy), roulette, Mitsuba's budget,
+/// both samplers, guided frames with lookups.
 #[test]
-fn lambertian_vertices_in_lanes_are_the_scalar_vertices() {
+fn vertices_in_lanes_are_the_scalar_vertices() {
     let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../");
     let load = |p: &str| glint_formats::load(std::path::Path::new(&format!("{root}{p}"))).expect(p).scene;
     let dragon = load("scenes/cornell-dragon.toml");
@@ -528,14 +530,36 @@ fn lambertian_vertices_in_lanes_are_the_scalar_vertices() {
     for m in &mut diffuse_dragon.materials {
         m.specular = 0.0;
     }
+    let mut shiny_dragon = dragon.clone();
+    for m in shiny_dragon.materials.iter_mut().filter(|m| m.specular > 0.0) {
+        (m.diffuse, m.specular, m.shininess) = (0.0, 0.8, 300.0);
+    }
+    // Light through the open front: two suns, a sky, the ceiling's lamp in the same choice.
+    let mut sunlit = mitsuba_cbox();
+    sunlit.sky = Sky::Gradient { zenith: Rgb::new(0.2, 0.3, 0.8), horizon: Rgb::splat(0.9), ground: Rgb::splat(0.1) };
+    for (direction, colour) in
+        [(Vec3::new(0.2, -0.3, -1.0), Rgb::new(1.0, 0.9, 0.8)), (Vec3::new(-0.5, -0.2, -1.0), Rgb::splat(0.3))]
+    {
+        sunlit.lights.push(Light::Directional { direction: direction.normalize(), colour, intensity: 2.0 });
+    }
+    for m in &mut sunlit.materials {
+        (m.specular, m.shininess) = (0.3, 12.0);
+    }
     let mitsuba_xml = load("../shared/data/mitsuba/scenes/cbox/cbox.xml");
+    let sponza = load("scenes/sponza.toml");
     let guided = Filter::Guided(GuidedParams::for_width(32));
     let s = settings(32, 32);
-    for (name, scene) in
-        [("cbox", mitsuba_cbox()), ("cbox.xml", mitsuba_xml), ("dragon", dragon), ("diffuse dragon", diffuse_dragon)]
-    {
+    for (name, scene) in [
+        ("cbox", mitsuba_cbox()),
+        ("cbox.xml", mitsuba_xml),
+        ("dragon", dragon),
+        ("diffuse dragon", diffuse_dragon),
+        ("shiny dragon", shiny_dragon),
+        ("sunlit cbox", sunlit),
+        ("sponza", sponza),
+    ] {
         let world = World::new(scene);
-        assert!(glint_render::path::lit_by_area_lights_alone(&world), "{name}: lit by triangles alone");
+        assert!(glint_render::path::lights_in_lanes(&world), "{name}: lights the lanes take");
         for p in [
             path(3, 4, Filter::None),
             PathSettings { rr_start: 1, sampler: Sampler::Independent, ..path(2, 6, Filter::None) },
@@ -554,7 +578,7 @@ fn lambertian_vertices_in_lanes_are_the_scalar_vertices() {
                 assert_eq!(bits(a.path[i].indirect), bits(b.path[i].indirect), "{name} {p:?}: indirect {i}");
                 lit += (x.colour.max_element() > 0.01) as usize;
             }
-            assert!(lit > 500, "{name} {p:?}: {lit} lit pixels");
+            assert!(lit > 400, "{name} {p:?}: {lit} lit pixels");
         }
     }
 }

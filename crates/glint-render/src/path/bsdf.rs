@@ -55,6 +55,26 @@ pub struct Bsdf {
     physical: Option<Physical>,
 }
 
+/// What a BSDF without delta lobes and without a physically based model is made of (the
+/// Phong reading's diffuse and glossy lobes, Mitsuba's `diffuse`): the wavefront shades
+/// vertices on such surfaces eight at a time from these.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PhongParts {
+    /// ρd.
+    pub diffuse: Rgb,
+    /// Shading and geometric normals on the viewer's side.
+    pub normal: Vec3,
+    pub geometric: Vec3,
+    /// ρs and the Phong exponent (`glossy` 0: no glossy lobe).
+    pub glossy: f32,
+    pub exponent: f32,
+    /// The mirror direction of the viewer's.
+    pub mirror_dir: Vec3,
+    /// The lobes' choice probabilities.
+    pub p_diffuse: f32,
+    pub p_glossy: f32,
+}
+
 /// A sampled direction.
 #[derive(Clone, Copy, Debug)]
 pub struct BsdfSample {
@@ -156,25 +176,47 @@ impl Bsdf {
         }
     }
 
-    /// A Lambertian surface whose shading and geometric normals differ (the Phong reading of
-    /// a material with neither a glossy lobe nor delta lobes).
-    pub fn diffuse_with_geometric(diffuse: Rgb, normal: Vec3, geometric: Vec3) -> Bsdf {
-        Bsdf { geometric, ..Bsdf::lambertian(diffuse, normal) }
-    }
-
-    /// `(ρd, shading normal, geometric normal)` when this BSDF is a Lambertian lobe alone,
-    /// chosen with probability 1: every query then equals
-    /// [`Bsdf::diffuse_with_geometric`]'s of those three (what `integrator::lambertian_parts_at`
+    /// This BSDF's [`PhongParts`] when it has neither delta lobes nor a physically based
+    /// model (a Lambertian lobe, a glossy one, or both) and reflects something: every query
+    /// then equals [`Bsdf::from_phong`]'s of those parts (what `integrator::phong_parts_at`
     /// finds without building the BSDF; a test holds the two together).
     #[cfg(test)]
-    pub fn lambertian_parts(&self) -> Option<(Rgb, Vec3, Vec3)> {
+    pub fn phong_parts(&self) -> Option<PhongParts> {
         let alone = self.physical.is_none()
-            && self.p_diffuse == 1.0
-            && self.glossy == 0.0
-            && self.p_glossy == 0.0
+            && self.mirror == Rgb::ZERO
+            && self.transmit == Rgb::ZERO
             && self.p_mirror == 0.0
-            && self.refracted.is_none();
-        alone.then_some((self.diffuse, self.normal, self.geometric))
+            && self.refracted.is_none()
+            && self.p_non_delta() > 0.0;
+        alone.then_some(PhongParts {
+            diffuse: self.diffuse,
+            normal: self.normal,
+            geometric: self.geometric,
+            glossy: self.glossy,
+            exponent: self.exponent,
+            mirror_dir: self.mirror_dir,
+            p_diffuse: self.p_diffuse,
+            p_glossy: self.p_glossy,
+        })
+    }
+
+    /// The BSDF of a diffuse and a glossy lobe without delta lobes, from its parts.
+    pub fn from_phong(p: &PhongParts) -> Bsdf {
+        Bsdf {
+            normal: p.normal,
+            geometric: p.geometric,
+            diffuse: p.diffuse,
+            glossy: p.glossy,
+            exponent: p.exponent,
+            mirror: Rgb::ZERO,
+            transmit: Rgb::ZERO,
+            refracted: None,
+            mirror_dir: p.mirror_dir,
+            p_diffuse: p.p_diffuse,
+            p_glossy: p.p_glossy,
+            p_mirror: 0.0,
+            physical: None,
+        }
     }
 
     /// A physically based model at a hit whose geometric normal (on the viewer's side) is `ng`.

@@ -16,10 +16,11 @@
 //! first vertex after the guide vertex adds no emission that next-event estimation could have
 //! sampled (no double counting); emitters NEE cannot aim at (spheres, planes) count in full.
 
-use super::bsdf::Bsdf;
+use super::bsdf::{Bsdf, PhongParts};
 use super::lights::{LightSet, power_heuristic};
 use super::shading::{Physical, lambertian_at};
 use crate::stats::RayCounts;
+use crate::whitted::optics::reflect;
 use crate::world::{SurfaceHit, World};
 use glint_core::colour::luminance;
 use glint_core::random::SampleStream;
@@ -208,37 +209,64 @@ pub(super) fn bsdf_at(world: &World, hit: &SurfaceHit, dir: Vec3) -> (Bsdf, Rgb)
     (Bsdf::new(m, world.albedo(hit), wo, ns, ng, entering), emitted)
 }
 
-/// `(ρd, shading normal, geometric normal)` of the BSDF [`bsdf_at`] builds at `hit` (seen
-/// along `dir`) where that BSDF is a lone Lambertian lobe, without building it: Mitsuba's
-/// `diffuse` read by `lambertian_at`, and the Phong reading of a material with no specular
-/// lobe, no mirror, no glass and no Fresnel term. `Some` only where
-/// `bsdf_at(..).0.lambertian_parts()` is `Some`, with its values (the wavefront queues these
-/// vertices for shading in lanes; building the ~500-byte BSDF and reading three fields back
+/// The [`PhongParts`] of the BSDF [`bsdf_at`] builds at `hit` (seen along `dir`) where that
+/// BSDF has no delta lobe and no physically based model, without building it: Mitsuba's
+/// `diffuse` read by `lambertian_at`, and the Phong reading of a material with no mirror, no
+/// glass and no Fresnel term (its diffuse and glossy lobes). `Some` only where
+/// `bsdf_at(..).0.phong_parts()` is `Some`, with its values (the wavefront queues these
+/// vertices for shading in lanes; building the ~500-byte BSDF and reading its fields back
 /// stalled on store forwarding). `None` is also allowed where it would be `Some`.
 #[inline]
-pub(super) fn lambertian_parts_at(world: &World, hit: &SurfaceHit, dir: Vec3) -> Option<(Rgb, Vec3, Vec3)> {
+pub(super) fn phong_parts_at(world: &World, hit: &SurfaceHit, dir: Vec3) -> Option<PhongParts> {
     let m = world.material(hit.material);
     if let Some(root) = m.bsdf {
         let (rho, normal) = lambertian_at(world, hit, dir, root)?;
         // `Bsdf::lambertian` chooses its lobe with probability 1 where it reflects anything.
-        return (rho.max_element() > 0.0).then_some((rho, normal, normal));
+        return (rho.max_element() > 0.0).then_some(PhongParts {
+            diffuse: rho,
+            normal,
+            geometric: normal,
+            glossy: 0.0,
+            exponent: 0.0,
+            mirror_dir: Vec3::ZERO,
+            p_diffuse: 1.0,
+            p_glossy: 0.0,
+        });
     }
-    let plain = m.reflection_f0.is_none() && m.reflectivity == 0.0 && !m.is_transparent();
-    if !plain || m.specular.max(0.0) != 0.0 {
+    if m.reflection_f0.is_some() || m.reflectivity != 0.0 || m.is_transparent() {
         return None;
     }
-    let (_, ng, ns, _) = orient(hit, dir);
-    // `Bsdf::new` with no mirror, glass or glossy lobe: the Phong weight 1, the diffuse
-    // coefficient scaled down where it would reflect more than it receives.
+    let (_, ng, ns, wo) = orient(hit, dir);
+    // `Bsdf::new` without mirror or glass, operation for operation: the Phong weight, the
+    // pair scaled down where it would reflect more than it receives, the lobes' albedos and
+    // choice probabilities (the mirror's and the glass's luminance are 0).
+    let phong = Rgb::splat((1.0 - m.reflectivity - m.transparency).clamp(0.0, 1.0));
     let albedo = world.albedo(hit);
-    let mut kd = m.diffuse.max(0.0);
-    let total = kd * albedo.max_element();
+    let (mut kd, mut ks) = (m.diffuse.max(0.0), m.specular.max(0.0));
+    let total = kd * albedo.max_element() + ks;
     if total > 1.0 {
         kd /= total;
+        ks /= total;
     }
-    let diffuse = Rgb::ONE * albedo * kd;
-    let wd = luminance(diffuse);
-    (wd > 0.0 && wd.is_finite()).then_some((diffuse, ns, ng))
+    let diffuse = phong * albedo * kd;
+    let glossy = ks * phong.element_sum() / 3.0;
+    let (wd, wg) = (luminance(diffuse), glossy);
+    let sum = wd + wg + luminance(Rgb::ZERO) + luminance(Rgb::ZERO);
+    if sum.is_nan() || sum <= 0.0 {
+        return None;
+    }
+    let (p_diffuse, p_glossy) = (wd / sum, wg / sum);
+    let parts = PhongParts {
+        diffuse,
+        normal: ns,
+        geometric: ng,
+        glossy,
+        exponent: m.shininess.max(0.0),
+        mirror_dir: reflect(-wo, ns),
+        p_diffuse,
+        p_glossy,
+    };
+    (p_diffuse + p_glossy > 0.0).then_some(parts)
 }
 
 /// The light samples of next-event estimation at `hit`: every delta light of
@@ -540,13 +568,14 @@ mod tests {
         })
     }
 
-    /// `lambertian_parts_at` finds a lone Lambertian lobe exactly where `bsdf_at` builds one,
-    /// with its bits, and nowhere else: Phong materials with and without specular, mirror,
-    /// glass, Fresnel and emission, an albedo that scales the diffuse coefficient down, Mitsuba's
+    /// `phong_parts_at` finds a BSDF without delta lobes exactly where `bsdf_at` builds one,
+    /// with its bits, and nowhere else: Phong materials with and without specular (glossy
+    /// alone, exponents 0 to 500, a pair scaled down), mirror, glass, Fresnel and emission, an
+    /// albedo that scales the diffuse coefficient down, Mitsuba's
     /// `diffuse` (black or not, one- and two-sided) and a model that is not diffuse; hit from
     /// outside and inside.
     #[test]
-    fn lambertian_parts_are_those_of_the_built_bsdf() {
+    fn phong_parts_are_those_of_the_built_bsdf() {
         let phong = |diffuse: f32, colour: f32| Material {
             diffuse,
             colour: Rgb::splat(colour),
@@ -559,6 +588,10 @@ mod tests {
             phong(1.5, 0.9), // K_d · colour above 1: scaled down
             phong(0.0, 0.7), // black: no lobe
             Material { specular: 0.3, ..phong(0.6, 0.5) },
+            Material { specular: 0.7, shininess: 500.0, ..phong(0.0, 0.5) },
+            Material { specular: 0.9, shininess: 0.0, ..phong(0.8, 0.9) },
+            Material { specular: 0.2, ..Material::default() },
+            Material { specular: 0.0, shininess: 3.0, ..phong(0.0, 0.9) }, // black
             Material { reflectivity: 0.2, ..phong(0.6, 0.5) },
             Material { transparency: 0.5, ior: 1.5, ..phong(0.4, 0.5) },
             Material { reflection_f0: Some(Rgb::splat(0.04)), ..phong(0.6, 0.5) },
@@ -578,7 +611,7 @@ mod tests {
                 specular_reflectance: Tex::Value(Rgb::ONE),
             },
         ];
-        let mut seen = [0usize; 2];
+        let mut seen = [0usize; 3];
         for (i, m) in materials.iter().enumerate() {
             let world = ball(m.clone(), &bsdfs);
             let mut stream = SampleStream::new(4, 5, 6);
@@ -586,16 +619,22 @@ mod tests {
                 let d = glint_core::sampling::sample_uniform_sphere(stream.next_2d());
                 let ray = if k % 2 == 0 { Ray::new(d * 3.0, -d) } else { Ray::new(Vec3::ZERO, d) };
                 let hit = world.intersect(&ray).expect("the sphere");
-                let built = bsdf_at(&world, &hit, ray.dir).0.lambertian_parts();
-                let found = lambertian_parts_at(&world, &hit, ray.dir);
-                let bits =
-                    |p: Option<(Rgb, Vec3, Vec3)>| p.map(|(a, b, c)| [a, b, c].map(|v| v.to_array().map(f32::to_bits)));
+                let built = bsdf_at(&world, &hit, ray.dir).0.phong_parts();
+                let found = phong_parts_at(&world, &hit, ray.dir);
+                let bits = |p: Option<PhongParts>| {
+                    p.map(|p| {
+                        let v =
+                            [p.diffuse, p.normal, p.geometric, p.mirror_dir].map(|v| v.to_array().map(f32::to_bits));
+                        (v, [p.glossy, p.exponent, p.p_diffuse, p.p_glossy].map(f32::to_bits))
+                    })
+                };
                 assert_eq!(bits(found), bits(built), "material {i}, ray {k}");
-                seen[usize::from(found.is_some())] += 1;
+                seen[found.map_or(0, |p| 1 + usize::from(p.glossy > 0.0))] += 1;
             }
         }
-        // Both answers occur: the test is not vacuous.
-        assert!(seen[0] > 100 && seen[1] > 100, "{seen:?}");
+        // Every answer occurs (none, Lambertian alone, with a glossy lobe): the test is not
+        // vacuous.
+        assert!(seen.iter().all(|&n| n > 100), "{seen:?}");
     }
 
     /// `lambertian_at`'s reading of Mitsuba's `diffuse` (alone, and `twosided` over two) gives

@@ -93,6 +93,21 @@ impl AreaChoice {
     }
 }
 
+/// What the choice among the lights not sampled at every point picks, before it looks from
+/// a shading point ([`LightSet::choose`]).
+#[derive(Clone, Copy, Debug)]
+pub enum Chosen {
+    /// Delta light `i`, chosen with this probability.
+    Delta(usize, f32),
+    /// A point on an emissive triangle.
+    Area(AreaChoice),
+    /// A direction toward the sky, its radiance over its pdf, and that pdf (choice included).
+    Sky { dir: Vec3, weight: Rgb, pdf: f32 },
+}
+
+/// The most directional lights the wavefront's vertices in lanes take ([`LightSet::suns`]).
+pub const SUNS: usize = 2;
+
 /// A shadow ray toward a point on a light stops this fraction of the way, short of the
 /// light's own surface.
 pub const SHADOW_SHORT: f32 = 1.0 - 1e-4;
@@ -199,27 +214,53 @@ impl LightSet {
         self.cdf[entry] - lo
     }
 
-    /// Whether every light is an emissive triangle (no point, spot or directional light, no
-    /// sky): [`LightSet::choose_area`] then stands for [`LightSet::sample`]'s choice.
-    pub fn area_only(&self) -> bool {
-        self.delta_lights.is_empty() && self.sky_entry.is_none()
+    /// The lights as the wavefront's vertices in lanes take them, where they can: the
+    /// directional lights of [`LightSet::each_delta`] (at most [`SUNS`], as incident
+    /// direction and `L·π`, what [`LightSet::delta_sample`] gives at every point), the other
+    /// lights all in [`LightSet::choose`]'s choice among triangles and the sky. `None` for
+    /// point and spot lights, more suns, or delta lights in the choice.
+    pub fn suns(&self) -> Option<Vec<(Vec3, Rgb)>> {
+        if !self.each_delta || self.delta_lights.len() > SUNS {
+            return None;
+        }
+        let point = Vec3::ZERO;
+        let suns = self.delta_lights.iter().map(|l| match l {
+            Light::Directional { .. } => {
+                let s = l.sample_in(point, &self.projected)?;
+                Some((s.wi, s.radiance * PI))
+            }
+            _ => None,
+        });
+        suns.collect()
     }
 
-    /// The triangle and point on it that [`LightSet::sample`] picks from `u_choice` and `u`,
-    /// before it looks from a shading point: `None` where the choice falls on a light that
-    /// is not a triangle or has no probability.
-    pub fn choose_area(&self, world: &World, u_choice: f32, u: Vec2) -> Option<AreaChoice> {
+    /// What [`LightSet::sample`] picks from `u_choice` and `u` before it looks from a shading
+    /// point: `None` where it samples nothing. Forced inline, as is `area_choice`: the lanes'
+    /// gather calls it for every vertex.
+    #[inline(always)]
+    pub fn choose(&self, world: &World, u_choice: f32, u: Vec2) -> Option<Chosen> {
         let entry = self.cdf.partition_point(|&c| c <= u_choice).min(self.entries.len().checked_sub(1)?);
         let p_choice = self.choice_probability(entry);
+        if p_choice <= 0.0 {
+            return None;
+        }
         match self.entries[entry] {
-            Entry::Triangle(i) if p_choice > 0.0 => Some(self.area_choice(world, i, p_choice, u)),
-            _ => None,
+            Entry::Delta(i) => Some(Chosen::Delta(i, p_choice)),
+            Entry::Triangle(i) => Some(Chosen::Area(self.area_choice(world, i, p_choice, u))),
+            Entry::Sky => {
+                let s = self.sky.as_ref()?.sample(world.sky(), u)?;
+                if s.pdf.is_nan() || s.pdf <= 0.0 {
+                    return None;
+                }
+                let pdf = s.pdf * p_choice;
+                Some(Chosen::Sky { dir: s.dir, weight: s.radiance / pdf, pdf })
+            }
         }
     }
 
     /// Triangle `i` chosen with probability `p_choice`, at the point `u` warps to (uniform in
     /// area: Turk's square-root parametrisation).
-    #[inline]
+    #[inline(always)]
     fn area_choice(&self, world: &World, i: usize, p_choice: f32, u: Vec2) -> AreaChoice {
         let t = &self.triangles[i];
         let su = u.x.sqrt();
@@ -238,30 +279,14 @@ impl LightSet {
     /// One light sample for the shading point `hit`, from `u_choice` and `u`, among the lights
     /// not in [`LightSet::each_delta`].
     pub fn sample(&self, world: &World, hit: &SurfaceHit, u_choice: f32, u: Vec2) -> Option<LightSample> {
-        if self.entries.is_empty() {
-            return None;
-        }
-        let entry = self.cdf.partition_point(|&c| c <= u_choice).min(self.entries.len() - 1);
-        let p_choice = self.choice_probability(entry);
-        if p_choice <= 0.0 {
-            return None;
-        }
-        match self.entries[entry] {
-            Entry::Delta(i) => {
+        match self.choose(world, u_choice, u)? {
+            Chosen::Delta(i, p_choice) => {
                 let mut s = self.delta_sample(&self.delta_lights[i], hit)?;
                 s.weight /= p_choice;
                 Some(s)
             }
-            Entry::Triangle(i) => self.area_choice(world, i, p_choice, u).sample_from(hit),
-            Entry::Sky => {
-                let sky = self.sky.as_ref()?;
-                let s = sky.sample(world.sky(), u)?;
-                if s.pdf.is_nan() || s.pdf <= 0.0 {
-                    return None;
-                }
-                let pdf = s.pdf * p_choice;
-                Some(LightSample { wi: s.dir, shadow: hit.spawn_ray(s.dir), weight: s.radiance / pdf, pdf })
-            }
+            Chosen::Area(c) => c.sample_from(hit),
+            Chosen::Sky { dir, weight, pdf } => Some(LightSample { wi: dir, shadow: hit.spawn_ray(dir), weight, pdf }),
         }
     }
 

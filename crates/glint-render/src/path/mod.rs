@@ -98,12 +98,12 @@ pub struct PathSettings {
     pub sampler: Sampler,
 }
 
-/// Whether every light the path mode samples in `world` is an emissive triangle (no point,
-/// spot or directional light, no sky): the wavefront kernel then shades the vertices on
-/// Lambertian surfaces behind the guide vertex eight at a time.
+/// Whether the lanes take every light the path mode samples in `world` (emissive triangles,
+/// the sky, at most two directional lights; no point or spot light): the wavefront kernel
+/// then shades the vertices on surfaces without delta lobes eight at a time.
 #[must_use]
-pub fn lit_by_area_lights_alone(world: &World) -> bool {
-    LightSet::new(world).area_only()
+pub fn lights_in_lanes(world: &World) -> bool {
+    LightSet::new(world).suns().is_some()
 }
 
 /// How the path tracer runs its samples (the same estimator either way; BENCHMARKS.md §6
@@ -974,35 +974,44 @@ mod tests {
     use super::*;
     use crate::settings::ImageSettings;
 
-    /// The wavefront's lanes kernels (Lambertian vertices, mesh hits) give the same picture
-    /// bit for bit on the SSE baseline and with AVX2 (where the CPU has it): Mitsuba's Cornell
-    /// box, plain and guided.
+    /// The wavefront's lanes kernels (vertices without delta lobes, mesh hits) give the same
+    /// picture bit for bit on the SSE baseline and with AVX2 (where the CPU has it): Mitsuba's
+    /// Cornell box, and the same box glossy under a sky and a sun, plain and guided.
     #[test]
     fn the_lanes_kernels_give_the_same_bits_on_every_instruction_set() {
         use std::sync::atomic::Ordering::Relaxed;
         let dir = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes"));
         let text = include_str!("../../../../scenes/mitsuba-cbox.toml");
         let scene = glint_formats::load_scene_str(text, dir, "mitsuba-cbox.toml").expect("scene").scene;
-        let world = World::new(scene);
+        let mut sunlit = scene.clone();
+        sunlit.sky =
+            glint_scene::Sky::Gradient { zenith: Rgb::new(0.2, 0.3, 0.8), horizon: Rgb::ONE, ground: Rgb::ZERO };
+        let (direction, colour) = (Vec3::new(0.3, -0.4, -1.0).normalize(), Rgb::new(1.0, 0.9, 0.8));
+        sunlit.lights.push(glint_scene::Light::Directional { direction, colour, intensity: 2.0 });
+        for m in &mut sunlit.materials {
+            (m.specular, m.shininess) = (0.4, 20.0);
+        }
         let schedule = crate::bands::Schedule::WorkStealing;
         let image = ImageSettings { width: 48, height: 40, seed: 5, schedule, window: None };
         let guided = Filter::Guided(glint_filter::GuidedParams::for_width(48));
-        for path in [
-            PathSettings { spp: 3, max_bounces: 4, rr_start: 1, ..PathSettings::default() },
-            PathSettings { spp: 2, filter: guided, filter_area_direct: true, ..PathSettings::default() },
-        ] {
-            let frame = |baseline: bool| {
-                crate::LANES_BASELINE.store(baseline, Relaxed);
-                let mut film = Film::new(1, 1);
-                let camera = &world.scene().camera;
-                render_path(&world, camera, &image, &path, &Hooks::default(), &mut film).expect("render");
-                crate::LANES_BASELINE.store(false, Relaxed);
-                film.pixels.iter().map(|p| p.colour.to_array().map(f32::to_bits)).collect::<Vec<_>>()
-            };
-            let (avx, sse) = (frame(false), frame(true));
-            assert!(crate::path::lit_by_area_lights_alone(&world));
-            assert_eq!(avx, sse, "{path:?}");
-            assert!(avx.iter().filter(|p| p.iter().any(|&b| f32::from_bits(b) > 0.01)).count() > 1000);
+        for world in [World::new(scene), World::new(sunlit)] {
+            assert!(crate::path::lights_in_lanes(&world));
+            for path in [
+                PathSettings { spp: 3, max_bounces: 4, rr_start: 1, ..PathSettings::default() },
+                PathSettings { spp: 2, filter: guided, filter_area_direct: true, ..PathSettings::default() },
+            ] {
+                let frame = |baseline: bool| {
+                    crate::LANES_BASELINE.store(baseline, Relaxed);
+                    let mut film = Film::new(1, 1);
+                    let camera = &world.scene().camera;
+                    render_path(&world, camera, &image, &path, &Hooks::default(), &mut film).expect("render");
+                    crate::LANES_BASELINE.store(false, Relaxed);
+                    film.pixels.iter().map(|p| p.colour.to_array().map(f32::to_bits)).collect::<Vec<_>>()
+                };
+                let (avx, sse) = (frame(false), frame(true));
+                assert_eq!(avx, sse, "{path:?}");
+                assert!(avx.iter().filter(|p| p.iter().any(|&b| f32::from_bits(b) > 0.01)).count() > 1000);
+            }
         }
     }
 

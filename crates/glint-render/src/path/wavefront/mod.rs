@@ -9,8 +9,8 @@
 //! 2. **shade**: every hit at once — emission with its MIS weight, the BSDF, the light samples
 //!    of next-event estimation (queued as shadow rays with what each adds when unblocked), the
 //!    next direction, Russian roulette; survivors are compacted into the next round's paths
-//!    (in a scene lit by emissive triangles alone, the vertices on Lambertian surfaces are
-//!    queued and shaded eight at a time in lanes: [`diffuse8`]);
+//!    (the vertices on surfaces without delta lobes, in a scene whose lights the lanes take,
+//!    are queued and shaded eight at a time in lanes: [`phong8`]);
 //! 3. **shadows**: the round's shadow rays binned by octant and asked as any-hit packets;
 //! 4. the paths that ended this round hand their radiance to their camera sample.
 //!
@@ -26,18 +26,18 @@
 //! Every number is still `hash(pixel, sample, dimension, seed)`: no thread count or schedule
 //! changes a bit.
 
-mod diffuse8;
+mod phong8;
 
 use super::Frame;
 use super::bsdf::Bsdf;
 use super::integrator::{
-    Arrival, CameraSample, GuideGeometry, IndirectMode, bsdf_at, clamp_radiance, lambertian_parts_at, light_samples,
+    Arrival, CameraSample, GuideGeometry, IndirectMode, bsdf_at, clamp_radiance, light_samples, phong_parts_at,
 };
 use crate::stats::RayCounts;
 use crate::world::{SurfaceHit, World};
-use diffuse8::{Budget, DiffuseResult, DiffuseVertex, Guide, Kind};
 use glint_core::random::SampleStream;
 use glint_core::{Ray, Rgb, Vec2, Vec3};
+use phong8::{Budget, Guide, Kind, PhongResult, PhongVertex, SunShadow};
 
 /// The stream dimensions of delta lobe `k` of a guide vertex start at `(k + 1) ·` this, far
 /// beyond what any path reads (a few dimensions per bounce, bounces capped by
@@ -122,6 +122,9 @@ struct Shadow {
     indirect: Rgb,
 }
 
+/// A vertex's answer from the lanes: its result, the scene's suns and its rays toward them.
+type Answer<'r> = (&'r PhongResult, (&'r [(Vec3, Rgb)], &'r [SunShadow]));
+
 /// Where the light samples of a vertex go.
 #[derive(Clone, Copy)]
 enum Dest {
@@ -141,14 +144,17 @@ pub(super) struct Wavefront<'a> {
     pub counts: RayCounts,
     q: Queues,
     batch: Batch,
+    /// The suns the lanes take (`LightSet::suns`; empty when the batch is off).
+    suns: Vec<(Vec3, Rgb)>,
 }
 
-/// How a round's vertices on Lambertian surfaces are shaded.
+/// How a round's vertices on surfaces without delta lobes are shaded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Batch {
-    /// Each where it comes (a scene with lights other than emissive triangles).
+    /// Each where it comes (a scene with lights the lanes do not take: points, spots, more
+    /// than `lights::SUNS` suns).
     Off,
-    /// Queued, then eight at a time in lanes ([`diffuse8`]).
+    /// Queued, then eight at a time in lanes ([`phong8`]).
     Lanes,
     /// Queued, then one at a time by the scalar code (the lanes' oracle: the same order).
     Scalar,
@@ -167,8 +173,9 @@ struct Queues {
     ended: Vec<u32>,
     shadows: Vec<Shadow>,
     order: Vec<u32>,
-    diffuse: Vec<DiffuseVertex>,
-    diffuse_out: Vec<DiffuseResult>,
+    phong: Vec<PhongVertex>,
+    phong_out: Vec<PhongResult>,
+    sun_out: Vec<SunShadow>,
 }
 
 thread_local! {
@@ -176,16 +183,17 @@ thread_local! {
 }
 
 impl<'a> Wavefront<'a> {
-    /// A tracer of `frame`; `lanes`: its Lambertian vertices shaded eight at a time (else one
-    /// at a time, in the same order).
+    /// A tracer of `frame`; `lanes`: its vertices without delta lobes shaded eight at a time
+    /// (else one at a time, in the same order).
     pub(super) fn new(world: &'a World, frame: &'a Frame, lanes: bool) -> Self {
         let q = QUEUES.try_with(|q| q.take()).unwrap_or_default();
-        let batch = match (frame.lights.area_only(), lanes) {
-            (false, _) => Batch::Off,
-            (true, true) => Batch::Lanes,
-            (true, false) => Batch::Scalar,
+        let suns = frame.lights.suns();
+        let batch = match (&suns, lanes) {
+            (None, _) => Batch::Off,
+            (Some(_), true) => Batch::Lanes,
+            (Some(_), false) => Batch::Scalar,
         };
-        Self { world, frame, counts: RayCounts::default(), q, batch }
+        Self { world, frame, counts: RayCounts::default(), q, batch, suns: suns.unwrap_or_default() }
     }
 
     /// Trace the camera samples `requests`; `out[i]` is request `i`'s image position and
@@ -224,7 +232,7 @@ impl<'a> Wavefront<'a> {
                     Leg::Tail(leg) => self.shade_tail(i as u32, path, *leg, hit.as_ref()),
                 }
             }
-            self.shade_lambertian(&paths, &hits, out);
+            self.shade_phong(&paths, &hits, out);
             (self.q.paths, self.q.hits) = (paths, hits);
             self.trace_shadows(out);
             for &t in &self.q.ended {
@@ -287,12 +295,14 @@ impl<'a> Wavefront<'a> {
         };
         sample.covered = true;
         leg.depth = if leg.chain == 0 { self.frame.camera.depth(hit.position) } else { leg.depth + hit.t };
-        // A Lambertian guide vertex needs only three of the BSDF's fields: it is not built.
-        let lambertian =
-            if self.batch == Batch::Off { None } else { lambertian_parts_at(self.world, hit, path.ray.dir) };
+        // A guide vertex without delta lobes needs only the BSDF's parts: it is not built. (The
+        // lanes trace no glossy-only tail: a lookup guide vertex with a glossy lobe is shaded
+        // here.)
+        let phong = if self.batch == Batch::Off { None } else { phong_parts_at(self.world, hit, path.ray.dir) };
+        let phong = phong.filter(|p| leg.mode == IndirectMode::Trace || p.glossy <= 0.0);
         // Read in place: moving the BSDF out of the pair copied its 488 bytes (a Mitsuba
         // scene's Cornell box, whose BSDFs are the physically based model: 2–3 % faster).
-        let shaded = lambertian.is_none().then(|| bsdf_at(self.world, hit, path.ray.dir));
+        let shaded = phong.is_none().then(|| bsdf_at(self.world, hit, path.ray.dir));
         let emission = shaded.as_ref().map_or_else(|| self.world.emitted(hit, -path.ray.dir), |s| s.1);
         if leg.chain > 0 || !params.hide_emitters {
             sample.rest += leg.throughput * emission;
@@ -308,15 +318,15 @@ impl<'a> Wavefront<'a> {
         let mut stream = path.stream;
         let u_lobe = stream.next_1d();
         let u = stream.next_2d();
-        if let Some(parts) = lambertian {
-            // A lone Lambertian lobe is never delta-dominant and has no delta lobes.
-            let albedo = leg.throughput * parts.0;
+        if let Some(parts) = phong {
+            // Without delta lobes a BSDF is never delta-dominant.
+            let albedo = leg.throughput * parts.diffuse;
             out[slot as usize].1.albedo = albedo;
             let (throughput, trace) = (leg.throughput, leg.mode == IndirectMode::Trace);
             let guide = Guide { throughput, albedo, bounces, trace, entry: stream.dimension() };
             let budget = Budget { mitsuba: params.max_depth.is_some(), rr_start: params.rr_start };
-            self.q.diffuse.push(DiffuseVertex::guide(index, guide, parts, stream, budget, params.filtered));
-            out[slot as usize].1.guide = Some(GuideGeometry { normal: parts.1, depth: leg.depth });
+            self.q.phong.push(PhongVertex::guide(index, guide, parts, stream, budget, params.filtered));
+            out[slot as usize].1.guide = Some(GuideGeometry { normal: parts.normal, depth: leg.depth });
             return;
         }
         let Some((bsdf, _)) = shaded.as_ref() else { return };
@@ -422,8 +432,8 @@ impl<'a> Wavefront<'a> {
     }
 
     /// One vertex behind a guide vertex (path `index` of the round): the recursive tracer's
-    /// `trace_path` loop body. A Lambertian one in a scene lit by emissive triangles alone is
-    /// queued for [`Wavefront::shade_lambertian`] after its emission is taken.
+    /// `trace_path` loop body. One without delta lobes, in a scene whose lights the lanes
+    /// take, is queued for [`Wavefront::shade_phong`] after its emission is taken.
     fn shade_tail(&mut self, index: u32, path: &Path, leg: TailLeg, hit: Option<&SurfaceHit>) {
         self.counts.secondary += 1;
         let frame = self.frame;
@@ -436,19 +446,18 @@ impl<'a> Wavefront<'a> {
             self.q.ended.push(leg.tail);
             return;
         };
-        let lambertian =
-            if self.batch == Batch::Off { None } else { lambertian_parts_at(self.world, hit, path.ray.dir) };
-        // A Lambertian vertex needs only three of the BSDF's fields: it is not built.
-        let shaded = lambertian.is_none().then(|| bsdf_at(self.world, hit, path.ray.dir));
+        let phong = if self.batch == Batch::Off { None } else { phong_parts_at(self.world, hit, path.ray.dir) };
+        // A vertex without delta lobes needs only the BSDF's parts: it is not built.
+        let shaded = phong.is_none().then(|| bsdf_at(self.world, hit, path.ray.dir));
         let emission = shaded.as_ref().map_or_else(|| self.world.emitted(hit, -path.ray.dir), |s| s.1);
         if emission.max_element() > 0.0 {
             let weight = leg.arrival.emission_weight(lights.pdf_surface(leg.arrival.from, path.ray.dir, hit));
             self.q.tails[leg.tail as usize].li += leg.beta * emission * weight;
         }
-        match (lambertian, shaded.as_ref()) {
+        match (phong, shaded.as_ref()) {
             (Some(parts), _) => {
                 let budget = Budget { mitsuba: params.max_depth.is_some(), rr_start: params.rr_start };
-                self.q.diffuse.push(DiffuseVertex::tail(index, path, &leg, parts, budget));
+                self.q.phong.push(PhongVertex::tail(index, path, &leg, parts, budget));
             }
             (None, Some((bsdf, _))) => self.continue_tail(path, leg, hit, bsdf),
             (None, None) => {}
@@ -497,15 +506,15 @@ impl<'a> Wavefront<'a> {
         self.q.next.push(Path { slot: path.slot, ray: hit.spawn_ray(s.wi), stream, leg: Leg::Tail(leg) });
     }
 
-    /// The round's queued Lambertian vertices (`paths[v.index]`, `hits[v.index]`): their
-    /// shadow rays, next paths and new tails queued in their order, as `continue_tail` and
-    /// `guide_vertex` would have. `out`: the camera samples (the scalar oracle's guide vertices
-    /// write their albedo again, the same value).
-    fn shade_lambertian(&mut self, paths: &[Path], hits: &[Option<SurfaceHit>], out: &mut [(Vec2, CameraSample)]) {
-        if self.q.diffuse.is_empty() {
+    /// The round's queued vertices without delta lobes (`paths[v.index]`, `hits[v.index]`):
+    /// their shadow rays, next paths and new tails queued in their order, as `continue_tail`
+    /// and `guide_vertex` would have. `out`: the camera samples (the scalar oracle's guide
+    /// vertices write their albedo again, the same value).
+    fn shade_phong(&mut self, paths: &[Path], hits: &[Option<SurfaceHit>], out: &mut [(Vec2, CameraSample)]) {
+        if self.q.phong.is_empty() {
             return;
         }
-        let mut vertices = std::mem::take(&mut self.q.diffuse);
+        let mut vertices = std::mem::take(&mut self.q.phong);
         if self.batch == Batch::Scalar {
             for v in &vertices {
                 let path = &paths[v.index as usize];
@@ -521,57 +530,74 @@ impl<'a> Wavefront<'a> {
                 }
             }
         } else {
-            let mut results = std::mem::take(&mut self.q.diffuse_out);
-            diffuse8::shade((self.world, &self.frame.lights), paths, hits, &vertices, &mut results);
+            let mut results = std::mem::take(&mut self.q.phong_out);
+            let mut sun_rays = std::mem::take(&mut self.q.sun_out);
+            let suns = std::mem::take(&mut self.suns);
+            let lights = (self.world, &self.frame.lights, &suns[..]);
+            phong8::shade(lights, paths, hits, &vertices, (&mut results, &mut sun_rays));
+            let mut next_sun = 0;
             for (v, r) in vertices.iter().zip(&results) {
                 let path = &paths[v.index as usize];
+                let from = next_sun;
+                next_sun += usize::from(r.suns);
                 let Some(hit) = &hits[v.index as usize] else { continue };
-                match (&v.kind, path.leg) {
-                    (Kind::Tail, Leg::Tail(leg)) => self.tail_result(path, leg, hit, v, r),
-                    (Kind::Guide(g), _) => self.guide_result(path, hit, g, v, r),
+                let sun = (&suns[..], &sun_rays[from..next_sun]);
+                match (&v.kind, &path.leg) {
+                    (Kind::Tail, Leg::Tail(leg)) => self.tail_result(path, *leg, hit, v, (r, sun)),
+                    (Kind::Guide(g), _) => self.guide_result(path, hit, g, v, (r, sun)),
                     _ => {}
                 }
             }
-            self.q.diffuse_out = results;
+            self.suns = suns;
+            self.q.phong_out = results;
+            self.q.sun_out = sun_rays;
         }
         vertices.clear();
-        self.q.diffuse = vertices;
+        self.q.phong = vertices;
+    }
+
+    /// A vertex's shadow rays from the lanes, queued as `light_samples` queues them: its
+    /// suns' (`suns`: the scene's suns, then the vertex's rays toward them), then the chosen
+    /// light's.
+    #[inline]
+    fn queue_shadows(&mut self, (r, suns): Answer, dest: Dest) {
+        let filter_direct = self.frame.params.filter_area_direct;
+        for s in suns.1 {
+            self.counts.shadow += 1;
+            let ray = Ray::new(s.origin, suns.0[s.sun as usize].0);
+            self.q.shadows.push(shadow_to(dest, filter_direct, ray, s.brings, Rgb::ZERO));
+        }
+        if let Some((ray, c, diffuse)) = r.shadow {
+            self.counts.shadow += 1;
+            self.q.shadows.push(shadow_to(dest, filter_direct, ray, c, diffuse));
+        }
     }
 
     /// A tail vertex's lanes answer queued as `continue_tail` queues it.
-    fn tail_result(&mut self, path: &Path, leg: TailLeg, hit: &SurfaceHit, v: &DiffuseVertex, r: &DiffuseResult) {
-        if let Some((ray, c, _)) = r.shadow {
-            self.counts.shadow += 1;
-            let (direct, indirect) = (Rgb::ZERO, Rgb::ZERO);
-            self.q.shadows.push(Shadow { ray, slot: 0, tail: leg.tail, rest: leg.beta * c, direct, indirect });
-        }
-        let Some((ray, beta, pdf, _)) = r.next else {
+    fn tail_result(&mut self, path: &Path, leg: TailLeg, hit: &SurfaceHit, v: &PhongVertex, answer: Answer) {
+        self.queue_shadows(answer, Dest::Tail { tail: leg.tail, beta: leg.beta });
+        let r = answer.0;
+        let Some(next) = r.next else {
             self.q.ended.push(leg.tail);
             return;
         };
-        let arrival = Arrival { pdf, delta: false, after_guide: false, from: hit.position };
-        let leg = TailLeg { beta, bounce: leg.bounce + 1, arrival, ..leg };
-        self.q.next.push(Path { slot: path.slot, ray, stream: v.stream(path), leg: Leg::Tail(leg) });
+        let arrival = Arrival { pdf: next.pdf, delta: false, after_guide: false, from: hit.position };
+        let leg = TailLeg { beta: next.beta, bounce: leg.bounce + 1, arrival, ..leg };
+        self.q.next.push(Path { slot: path.slot, ray: next.ray, stream: v.stream(path), leg: Leg::Tail(leg) });
     }
 
     /// A guide vertex's lanes answer queued as `guide_vertex` queues it.
-    fn guide_result(&mut self, path: &Path, hit: &SurfaceHit, g: &Guide, v: &DiffuseVertex, r: &DiffuseResult) {
+    fn guide_result(&mut self, path: &Path, hit: &SurfaceHit, g: &Guide, v: &PhongVertex, answer: Answer) {
         let params = self.frame.params;
         let (slot, throughput, trace) = (path.slot, g.throughput, g.trace);
-        if let Some((ray, c, diffuse)) = r.shadow {
-            self.counts.shadow += 1;
-            // The filtered part of the direct light leaves the unfiltered sum.
-            let filtered = if params.filter_area_direct { diffuse } else { Rgb::ZERO };
-            let direct = throughput * c - g.albedo * filtered;
-            let indirect = if trace { filtered } else { Rgb::ZERO };
-            self.q.shadows.push(Shadow { ray, slot, tail: NO_TAIL, rest: direct, direct, indirect });
-        }
-        if let Some((ray, _, pdf, shape)) = r.next {
+        self.queue_shadows(answer, Dest::Guide { slot, throughput, albedo: g.albedo, trace });
+        let r = answer.0;
+        if let Some(next) = r.next {
             let mitsuba = params.max_depth.is_some() && !params.filtered;
-            let arrival = Arrival { pdf, delta: false, after_guide: !mitsuba, from: hit.position };
-            let to_rest = throughput * (Rgb::ZERO / pdf);
-            let tail = Tail { slot, li: Rgb::ZERO, clamp: true, to_rest, to_indirect: shape / pdf };
-            self.start_tail(tail, ray, v.stream(path), (1, g.bounces), arrival);
+            let arrival = Arrival { pdf: next.pdf, delta: false, after_guide: !mitsuba, from: hit.position };
+            let to_rest = throughput * (Rgb::splat(next.glossy) / next.pdf);
+            let tail = Tail { slot, li: Rgb::ZERO, clamp: true, to_rest, to_indirect: next.shape / next.pdf };
+            self.start_tail(tail, next.ray, v.stream(path), (1, g.bounces), arrival);
         }
     }
 
@@ -588,18 +614,7 @@ impl<'a> Wavefront<'a> {
         let filter_direct = frame.params.filter_area_direct;
         let shadows = &mut self.q.shadows;
         light_samples(&frame.lights, self.world, hit, bsdf, stream, mis, &mut self.counts, |ray, c, diffuse| {
-            shadows.push(match dest {
-                Dest::Guide { slot, throughput, albedo, trace } => {
-                    // The filtered part of the direct light leaves the unfiltered sum.
-                    let filtered = if filter_direct { diffuse } else { Rgb::ZERO };
-                    let direct = throughput * c - albedo * filtered;
-                    let indirect = if trace { filtered } else { Rgb::ZERO };
-                    Shadow { ray: *ray, slot, tail: NO_TAIL, rest: direct, direct, indirect }
-                }
-                Dest::Tail { tail, beta } => {
-                    Shadow { ray: *ray, slot: 0, tail, rest: beta * c, direct: Rgb::ZERO, indirect: Rgb::ZERO }
-                }
-            });
+            shadows.push(shadow_to(dest, filter_direct, *ray, c, diffuse));
         });
     }
 
@@ -633,6 +648,24 @@ impl<'a> Wavefront<'a> {
                     self.q.tails[s.tail as usize].li += s.rest;
                 }
             }
+        }
+    }
+}
+
+/// The queued shadow ray of a light sample that brings `c` (its diffuse part demodulated:
+/// `diffuse`) to `dest`; `filter_direct`: a guide vertex's filtered part of the direct light
+/// leaves the unfiltered sum for the traced indirect buffer.
+#[inline]
+fn shadow_to(dest: Dest, filter_direct: bool, ray: Ray, c: Rgb, diffuse: Rgb) -> Shadow {
+    match dest {
+        Dest::Guide { slot, throughput, albedo, trace } => {
+            let filtered = if filter_direct { diffuse } else { Rgb::ZERO };
+            let direct = throughput * c - albedo * filtered;
+            let indirect = if trace { filtered } else { Rgb::ZERO };
+            Shadow { ray, slot, tail: NO_TAIL, rest: direct, direct, indirect }
+        }
+        Dest::Tail { tail, beta } => {
+            Shadow { ray, slot: 0, tail, rest: beta * c, direct: Rgb::ZERO, indirect: Rgb::ZERO }
         }
     }
 }

@@ -1,0 +1,712 @@
+//! Eight path vertices on surfaces without delta lobes shaded at once, structure of arrays
+//! (the wavefront's "shade in SIMD batches" for the commonest vertices: a diffuse or glossy
+//! wall, under area lights, suns and a sky).
+//!
+//! A round's guide vertices and the vertices behind them whose BSDF is the Phong reading's
+//! diffuse and glossy lobes or Mitsuba's `diffuse` ([`PhongParts`], found by
+//! `integrator::phong_parts_at`), in a scene whose lights the lanes take
+//! ([`LightSet::suns`]: up to [`SUNS`] directional lights sampled at every vertex, the rest
+//! emissive triangles and the sky), are queued while the round is shaded ([`PhongVertex`]:
+//! their random numbers drawn in the scalar code's order), then shaded eight to a kernel call
+//! ([`shade`]), in three steps:
+//! 1. **gather**: each lane's hit, BSDF, path state and light choice (the triangle and point,
+//!    or the sky's direction, that `LightSet::choose` picks) into lanes;
+//! 2. **lanes**: each sun's shadow ray and what it brings; the chosen light's point,
+//!    direction, pdf and shadow ray ([`crate::path::lights::AreaChoice::sample_from`], or the
+//!    sky's direction), the BSDF's value and pdf there, the power heuristic; the bounce (the
+//!    lobe chosen by its probability; the cosine-weighted direction from the concentric disc
+//!    with [`glint_core::sampling::sin_cos_quarter`]'s polynomials, or the Phong lobe's
+//!    direction about the mirror direction), its frame (Duff et al. 2017), weight and Russian
+//!    roulette; every ray's origin ([`RayOrigins8`]);
+//! 3. **scatter**: lane by lane, the shadow rays queued and the path continued or ended, in
+//!    the order the scalar code would have queued them.
+//!
+//! Every lane performs the scalar code's float operations in its order (no fused
+//! multiply-add; `glint_accel::lanes` guarantees each operation's bits on both instruction
+//! sets); the glossy lobe's `powf` and the Phong direction's sine and cosine are libm's, lane
+//! by lane, as the scalar code calls them. So a lane gives the bits of
+//! `Wavefront::continue_tail` (or `guide_vertex`) on the same vertex: the `WavefrontScalar`
+//! kernel, which sends the same queue through that scalar code, is the oracle (tests/path.rs
+//! compares the two pictures bit for bit).
+
+use super::{Path, TailLeg};
+use crate::path::bsdf::{Bsdf, PhongParts};
+use crate::path::lights::{Chosen, LightSet, SHADOW_SHORT, SUNS};
+use crate::world::{SurfaceHit, World};
+use glint_accel::batch::RayOrigins8;
+use glint_accel::lanes::{F8, Isa, LANES, LaneKernel, M8, V8, dispatch};
+use glint_core::random::SampleStream;
+use glint_core::sampling::{COS_QUARTER, SIN_QUARTER};
+use glint_core::{Ray, Rgb, Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, FRAC_PI_4, TAU};
+
+/// A vertex on a surface without delta lobes, its random numbers drawn: one lane's input.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct PhongVertex {
+    /// Its path's and hit's index in the round.
+    pub index: u32,
+    pub kind: Kind,
+    pub parts: PhongParts,
+    /// The choice's numbers (choice, point); `None` where the vertex samples no light (nor
+    /// the suns).
+    pub light: Option<(f32, Vec2)>,
+    /// The chosen light's sample is weighed against BSDF sampling (power heuristic) with
+    /// the BSDF's pdf times this.
+    pub mis: Option<f32>,
+    /// The bounce's numbers (lobe, direction); `None` where the path ends after its light
+    /// samples.
+    pub bounce: Option<(f32, Vec2)>,
+    /// Russian roulette's number, where the next vertex is past `rr_start`.
+    pub rr: Option<f32>,
+    /// The dimension of the path's stream after these draws (a queued vertex with a whole
+    /// stream and a light choice stalled on store forwarding when gathered).
+    pub dimension: u64,
+}
+
+/// Which vertex of its camera sample.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Kind {
+    /// Behind the guide vertex (its path's leg is a tail).
+    Tail,
+    /// The guide vertex itself.
+    Guide(Guide),
+}
+
+/// A guide vertex's state: its camera chain's throughput, the albedo it showed, its tail's
+/// last light-sampling vertex, whether it traces its indirect light, and the dimension its
+/// stream is at when `guide_vertex` receives it (the oracle's).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Guide {
+    pub throughput: Rgb,
+    pub albedo: Rgb,
+    pub bounces: u32,
+    pub trace: bool,
+    pub entry: u64,
+}
+
+/// How the path budget treats a vertex (the scalar `continue_tail`'s reading of its
+/// parameters).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Budget {
+    /// Mitsuba's `max_depth` (its last light-sampling vertex follows its BSDF once more).
+    pub mitsuba: bool,
+    pub rr_start: u32,
+}
+
+impl PhongVertex {
+    /// The vertex of `path` (its leg `leg`) at a surface of BSDF `parts`: its numbers drawn
+    /// from the path's stream in the order `continue_tail` draws them (light choice and point,
+    /// then lobe and direction, then the roulette's), so the stream it carries on is the
+    /// scalar code's.
+    #[inline]
+    pub fn tail(index: u32, path: &Path, leg: &TailLeg, parts: PhongParts, budget: Budget) -> PhongVertex {
+        let mut stream = path.stream;
+        let (mut light, mut mis) = (None, None);
+        if leg.bounce <= leg.max_bounces {
+            // MIS against BSDF sampling, except at the last vertex (its BSDF ray is not traced).
+            mis = (leg.bounce < leg.max_bounces || budget.mitsuba).then_some(1.0);
+            let u_choice = stream.next_1d();
+            light = Some((u_choice, stream.next_2d()));
+        }
+        let (mut bounce, mut rr) = (None, None);
+        if leg.bounce < leg.max_bounces + u32::from(budget.mitsuba) {
+            let u_lobe = stream.next_1d();
+            bounce = Some((u_lobe, stream.next_2d()));
+            if leg.bounce + 1 > budget.rr_start {
+                rr = Some(stream.next_1d());
+            }
+        }
+        let dimension = stream.dimension();
+        PhongVertex { index, kind: Kind::Tail, parts, light, mis, bounce, rr, dimension }
+    }
+
+    /// The guide vertex of path `index` (`filtered`: the frame is filtered), its numbers
+    /// drawn from `stream` (the path's at `guide.entry`) in `guide_vertex`'s order: the light
+    /// samples', then, where it starts a traced tail, the bounce's.
+    #[inline]
+    pub fn guide(
+        index: u32,
+        guide: Guide,
+        parts: PhongParts,
+        mut stream: SampleStream,
+        budget: Budget,
+        filtered: bool,
+    ) -> PhongVertex {
+        // Mitsuba's budget weighs the direct light against the BSDF sample (whose density is
+        // the non-delta part's alone).
+        let mitsuba = budget.mitsuba && !filtered;
+        let mis = mitsuba.then(|| 1.0 / (parts.p_diffuse + parts.p_glossy).max(1e-12));
+        let u_choice = stream.next_1d();
+        let light = Some((u_choice, stream.next_2d()));
+        let mut bounce = None;
+        if guide.trace && (guide.bounces > 0 || mitsuba) {
+            let u_lobe = stream.next_1d();
+            bounce = Some((u_lobe, stream.next_2d()));
+        }
+        let (kind, dimension) = (Kind::Guide(guide), stream.dimension());
+        PhongVertex { index, kind, parts, light, mis, bounce, rr: None, dimension }
+    }
+
+    /// Its path's stream after its draws.
+    pub fn stream(&self, path: &Path) -> SampleStream {
+        path.stream.at_dimension(self.dimension)
+    }
+
+    /// The BSDF the scalar code shades this vertex with.
+    pub fn bsdf(&self) -> Bsdf {
+        Bsdf::from_phong(&self.parts)
+    }
+}
+
+/// A vertex's bounce: its ray, the path's β after it (tails: roulette included), its pdf,
+/// and the lobes' parts there over nothing: the diffuse shape `max(n·wi, 0)/π` and the
+/// glossy lobe's `f·cos` (what a guide vertex's tail hands to its camera sample).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Next {
+    pub ray: Ray,
+    pub beta: Rgb,
+    pub pdf: f32,
+    pub shape: f32,
+    pub glossy: f32,
+}
+
+/// What a vertex gives back.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct PhongResult {
+    /// How many of its suns' shadow rays follow the previous vertex's in [`SunShadow`]s.
+    pub suns: u8,
+    /// The chosen light's shadow ray, what it brings (`f·cos·L/pdf` × the MIS weight) and
+    /// that light's diffuse part demodulated (`light_samples`' two colours).
+    pub shadow: Option<(Ray, Rgb, Rgb)>,
+    pub next: Option<Next>,
+}
+
+/// A sun's shadow ray from a vertex (sun `sun` of [`LightSet::suns`], from `origin`) and what
+/// it brings when nothing blocks it (`f·cos·L·π`). Kept apart from [`PhongResult`]: a scene
+/// without suns writes none (two empty slots a vertex cost the Cornell box 10 %: its
+/// results no longer stayed in cache).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct SunShadow {
+    pub sun: u8,
+    pub origin: Vec3,
+    pub brings: Rgb,
+}
+
+/// Shade `vertices` (whose paths and hits are `paths[v.index]`, `hits[v.index]`, each with
+/// a hit) eight at a time with the best instruction set this CPU has, under the suns
+/// `suns` ([`LightSet::suns`]); `out.0[i]` is vertex `i`'s result, `out.1` its suns' shadow
+/// rays in vertex order.
+pub(super) fn shade(
+    (world, lights, suns): (&World, &LightSet, &[(Vec3, Rgb)]),
+    paths: &[Path],
+    hits: &[Option<SurfaceHit>],
+    vertices: &[PhongVertex],
+    out: (&mut Vec<PhongResult>, &mut Vec<SunShadow>),
+) {
+    out.0.clear();
+    out.1.clear();
+    dispatch(Kernel { world, lights, suns, paths, hits, vertices, out }, crate::lanes_baseline());
+}
+
+struct Kernel<'a> {
+    world: &'a World,
+    lights: &'a LightSet,
+    suns: &'a [(Vec3, Rgb)],
+    paths: &'a [Path],
+    hits: &'a [Option<SurfaceHit>],
+    vertices: &'a [PhongVertex],
+    out: (&'a mut Vec<PhongResult>, &'a mut Vec<SunShadow>),
+}
+
+impl LaneKernel for Kernel<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run<I: Isa>(self) {
+        for chunk in self.vertices.chunks(LANES) {
+            let lanes = gather::<I>(chunk, self.paths, self.hits, (self.world, self.lights));
+            let shaded = shade8(&lanes, self.suns);
+            scatter(&shaded, self.suns.len(), chunk.len(), (&mut *self.out.0, &mut *self.out.1));
+        }
+    }
+}
+
+/// A BSDF without delta lobes in lanes ([`PhongParts`]).
+struct Lobes<I: Isa> {
+    normal: V8<I>,
+    geometric: V8<I>,
+    diffuse: V8<I>,
+    glossy: F8<I>,
+    exponent: F8<I>,
+    mirror_dir: V8<I>,
+    p_diffuse: F8<I>,
+    p_glossy: F8<I>,
+    /// Lanes with a glossy lobe (`glossy` > 0), and lanes whose pdf has one (`p_glossy` > 0).
+    has_glossy: M8<I>,
+    pdf_glossy: M8<I>,
+}
+
+/// Eight vertices' inputs in lanes (a short chunk repeats its last vertex; the copies'
+/// answers are dropped).
+struct Lanes<I: Isa> {
+    position: V8<I>,
+    p_error: V8<I>,
+    /// The hit's geometric normal as the geometry orients it (ray origins' side test).
+    hit_normal: V8<I>,
+    bsdf: Lobes<I>,
+    beta: V8<I>,
+    tail: M8<I>,
+    /// Lanes that sample light (the suns, and the choice unless it found nothing).
+    lit: M8<I>,
+    area: M8<I>,
+    vertices: [V8<I>; 3],
+    two_sided: M8<I>,
+    tri_area: F8<I>,
+    p_choice: F8<I>,
+    b0: F8<I>,
+    b1: F8<I>,
+    emission: V8<I>,
+    sky: M8<I>,
+    sky_dir: V8<I>,
+    sky_weight: V8<I>,
+    sky_pdf: F8<I>,
+    mis: M8<I>,
+    mis_scale: F8<I>,
+    bounce: M8<I>,
+    u_lobe: F8<I>,
+    u_bounce: [F8<I>; 2],
+    rr: M8<I>,
+    u_rr: F8<I>,
+}
+
+#[inline(always)]
+fn gather<I: Isa>(
+    chunk: &[PhongVertex],
+    paths: &[Path],
+    hits: &[Option<SurfaceHit>],
+    (world, lights): (&World, &LightSet),
+) -> Lanes<I> {
+    let (zero, zero3, none) = (F8::zero(), V8::zero(), M8::none_set());
+    let bsdf = Lobes {
+        normal: zero3,
+        geometric: zero3,
+        diffuse: zero3,
+        glossy: zero,
+        exponent: zero,
+        mirror_dir: zero3,
+        p_diffuse: zero,
+        p_glossy: zero,
+        has_glossy: none,
+        pdf_glossy: none,
+    };
+    let mut l = Lanes {
+        position: zero3,
+        p_error: zero3,
+        hit_normal: zero3,
+        bsdf,
+        beta: zero3,
+        tail: none,
+        lit: none,
+        area: none,
+        vertices: [zero3; 3],
+        two_sided: none,
+        tri_area: zero,
+        p_choice: zero,
+        b0: zero,
+        b1: zero,
+        emission: zero3,
+        sky: none,
+        sky_dir: zero3,
+        sky_weight: zero3,
+        sky_pdf: zero,
+        mis: none,
+        mis_scale: zero,
+        bounce: none,
+        u_lobe: zero,
+        u_bounce: [zero; 2],
+        rr: none,
+        u_rr: zero,
+    };
+    let (mut tail, mut lit, mut area, mut two_sided, mut sky) = (0u32, 0u32, 0u32, 0u32, 0u32);
+    let (mut mis, mut bounce, mut rr) = (0u32, 0u32, 0u32);
+    // Eight lone Lambertian lobes (most chunks of an area-lit scene) need only ρ and the
+    // normals: their other parts are the lanes' constants (lanes gathered one float at a time
+    // and read as vectors stall on store forwarding, a few percent of a Cornell box frame).
+    let lambertian = chunk.iter().all(|v| {
+        let p = &v.parts;
+        p.glossy == 0.0 && p.p_glossy == 0.0 && p.p_diffuse == 1.0
+    });
+    if lambertian {
+        l.bsdf.p_diffuse = F8::one();
+    }
+    for i in 0..LANES {
+        let v = &chunk[i.min(chunk.len() - 1)];
+        let bit = 1 << i;
+        let index = v.index as usize;
+        // Queued from a leg with a hit (`Wavefront::shade_tail`, `shade_camera`).
+        if let Some(hit) = &hits[index] {
+            l.position.set(i, hit.position);
+            l.p_error.set(i, hit.p_error);
+            l.hit_normal.set(i, hit.geometric_normal);
+        }
+        // A guide vertex's β is 1 (its tail starts afresh).
+        let beta = if let super::Leg::Tail(leg) = &paths[index].leg { leg.beta } else { Rgb::ONE };
+        l.beta.set(i, beta);
+        if matches!(v.kind, Kind::Tail) {
+            tail |= bit;
+        }
+        let p = &v.parts;
+        let b = &mut l.bsdf;
+        b.normal.set(i, p.normal);
+        b.geometric.set(i, p.geometric);
+        b.diffuse.set(i, p.diffuse);
+        if !lambertian {
+            b.glossy[i] = p.glossy;
+            b.exponent[i] = p.exponent;
+            b.mirror_dir.set(i, p.mirror_dir);
+            b.p_diffuse[i] = p.p_diffuse;
+            b.p_glossy[i] = p.p_glossy;
+        }
+        if let Some((u_choice, u)) = v.light {
+            lit |= bit;
+            // The light's triangle and point, or the sky's direction, as `LightSet::sample`
+            // chooses them.
+            match lights.choose(world, u_choice, u) {
+                Some(Chosen::Area(c)) => {
+                    area |= bit;
+                    if c.two_sided {
+                        two_sided |= bit;
+                    }
+                    for (k, p) in c.vertices.iter().enumerate() {
+                        l.vertices[k].set(i, *p);
+                    }
+                    l.tri_area[i] = c.area;
+                    l.p_choice[i] = c.p_choice;
+                    l.b0[i] = c.b0;
+                    l.b1[i] = c.b1;
+                    l.emission.set(i, c.emission);
+                }
+                Some(Chosen::Sky { dir, weight, pdf }) => {
+                    sky |= bit;
+                    l.sky_dir.set(i, dir);
+                    l.sky_weight.set(i, weight);
+                    l.sky_pdf[i] = pdf;
+                }
+                // `LightSet::suns` admits no delta light into the choice.
+                Some(Chosen::Delta(..)) | None => {}
+            }
+        }
+        if let Some(scale) = v.mis {
+            mis |= bit;
+            l.mis_scale[i] = scale;
+        }
+        if let Some((u_lobe, u)) = v.bounce {
+            bounce |= bit;
+            l.u_lobe[i] = u_lobe;
+            l.u_bounce[0][i] = u.x;
+            l.u_bounce[1][i] = u.y;
+        }
+        if let Some(u) = v.rr {
+            rr |= bit;
+            l.u_rr[i] = u;
+        }
+    }
+    let bits = M8::from_bits;
+    (l.tail, l.lit, l.area, l.two_sided, l.sky) = (bits(tail), bits(lit), bits(area), bits(two_sided), bits(sky));
+    (l.mis, l.bounce, l.rr) = (bits(mis), bits(bounce), bits(rr));
+    l.bsdf.has_glossy = l.bsdf.glossy.gt(zero);
+    l.bsdf.pdf_glossy = l.bsdf.p_glossy.gt(zero);
+    l
+}
+
+/// Eight vertices' answers in lanes.
+struct Shaded<I: Isa> {
+    /// Each sun's: lanes that queue its shadow ray, their origins and what each brings.
+    sun: [(M8<I>, V8<I>, V8<I>); SUNS],
+    shadow: M8<I>,
+    shadow_origin: V8<I>,
+    shadow_dir: V8<I>,
+    shadow_tmax: F8<I>,
+    shadow_brings: V8<I>,
+    shadow_diffuse: V8<I>,
+    next: M8<I>,
+    next_origin: V8<I>,
+    next_dir: V8<I>,
+    next_beta: V8<I>,
+    next_pdf: F8<I>,
+    next_shape: F8<I>,
+    next_glossy: F8<I>,
+}
+
+/// [`glint_core::sampling::sin_cos_quarter`] in lanes, operation for operation.
+#[inline(always)]
+fn sin_cos_quarter8<I: Isa>(x: F8<I>) -> (F8<I>, F8<I>) {
+    let z = x * x;
+    let [s1, s2, s3, s4] = SIN_QUARTER.map(F8::splat);
+    let [c1, c2, c3, c4, c5] = COS_QUARTER.map(F8::splat);
+    let sin = x + x * z * (s1 + z * (s2 + z * (s3 + z * s4)));
+    let cos = F8::one() + z * (c1 + z * (c2 + z * (c3 + z * (c4 + z * c5))));
+    (sin, cos)
+}
+
+/// `glint_core::sampling::sample_disc_concentric` in lanes, operation for operation (both
+/// quotients are formed; each lane keeps its branch's).
+#[inline(always)]
+fn disc8<I: Isa>(u: [F8<I>; 2]) -> [F8<I>; 2] {
+    let (zero, one) = (F8::zero(), F8::one());
+    let two = F8::splat(2.0);
+    let (ox, oy) = (u[0] * two - one, u[1] * two - one);
+    let centre = ox.eq(zero) & oy.eq(zero);
+    let x_ring = ox.abs().gt(oy.abs());
+    let (s, c) = sin_cos_quarter8(F8::splat(FRAC_PI_4) * F8::select(x_ring, oy / ox, ox / oy));
+    let r = F8::select(x_ring, ox, oy);
+    let dx = F8::select(x_ring, c, s) * r;
+    let dy = F8::select(x_ring, s, c) * r;
+    [F8::select(centre, zero, dx), F8::select(centre, zero, dy)]
+}
+
+/// `Frame::from_z(z).to_world(local)` (Duff et al.'s frame), operation for operation.
+#[inline(always)]
+fn to_world<I: Isa>(z: V8<I>, local: V8<I>) -> V8<I> {
+    let one = F8::one();
+    let sign = one.copysign(z.z);
+    let k = F8::splat(-1.0) / (sign + z.z);
+    let m = z.x * z.y * k;
+    let fx = V8::new(one + sign * z.x * z.x * k, sign * m, -sign * z.x);
+    let fy = V8::new(m, sign + z.y * z.y * k, -z.y);
+    fx.scale(local.x) + fy.scale(local.y) + z.scale(local.z)
+}
+
+/// `v / s` per component (glam's `Vec3 / f32`).
+#[inline(always)]
+fn over<I: Isa>(v: V8<I>, s: F8<I>) -> V8<I> {
+    V8::new(v.x / s, v.y / s, v.z / s)
+}
+
+/// Lanes where some component of `v` is above 0 (the scalar `max_element() > 0`).
+#[inline(always)]
+fn any_positive<I: Isa>(v: V8<I>) -> M8<I> {
+    let zero = F8::zero();
+    v.x.gt(zero) | v.y.gt(zero) | v.z.gt(zero)
+}
+
+/// glam's `max_element`, its comparisons in its order: `max(x, max(y, z))`.
+#[inline(always)]
+fn max_element<I: Isa>(v: V8<I>) -> F8<I> {
+    let yz = F8::select(v.y.gt(v.z), v.y, v.z);
+    F8::select(v.x.gt(yz), v.x, yz)
+}
+
+/// The glossy lobe's `cos^n α` toward `wi` in the lanes `need` (0 elsewhere): `Bsdf`'s
+/// `glossy_lobe`, libm's `powf` lane by lane.
+#[inline(always)]
+fn glossy_lobe<I: Isa>(b: &Lobes<I>, wi: V8<I>, need: M8<I>) -> F8<I> {
+    let c = b.mirror_dir.dot(wi);
+    let mut lobe = F8::zero();
+    for i in 0..LANES {
+        if need.lane(i) {
+            lobe[i] = if c[i] <= 0.0 { 0.0 } else { c[i].powf(b.exponent[i]) };
+        }
+    }
+    lobe
+}
+
+/// The BSDF toward a direction ([`Bsdf::eval_cos_and_pdf`]).
+struct Eval<I: Isa> {
+    /// Lanes where it reflects (cos above 0 by both normals).
+    reflects: M8<I>,
+    /// `f·cos`.
+    f: V8<I>,
+    pdf: F8<I>,
+    /// The glossy lobe's `cos^n α` (0 in lanes without a glossy lobe).
+    lobe: F8<I>,
+    /// The shading normal's cosine.
+    cos: F8<I>,
+}
+
+#[inline(always)]
+fn eval<I: Isa>(b: &Lobes<I>, wi: V8<I>) -> Eval<I> {
+    let zero = F8::zero();
+    let cos = b.normal.dot(wi);
+    let reflects = cos.gt(zero) & b.geometric.dot(wi).gt(zero);
+    let mut f = b.diffuse.scale(F8::splat(FRAC_1_PI));
+    let pdf_diffuse = F8::select(reflects, cos * F8::splat(FRAC_1_PI), zero);
+    let mut pdf = F8::select(b.p_diffuse.gt(zero), zero + b.p_diffuse * pdf_diffuse, zero);
+    let mut lobe = zero;
+    // Eight Lambertian lobes (most chunks of most scenes) skip the glossy lobe's arithmetic.
+    let glossy_lanes = b.has_glossy | b.pdf_glossy;
+    if glossy_lanes.any() {
+        lobe = glossy_lobe(b, wi, glossy_lanes);
+        let glossy = b.glossy * (b.exponent + F8::splat(2.0)) / F8::splat(TAU) * lobe;
+        f = V8::select(b.has_glossy, f + V8::new(glossy, glossy, glossy), f);
+        let pdf_g = b.p_glossy * ((b.exponent + F8::one()) / F8::splat(TAU) * lobe);
+        pdf = F8::select(b.pdf_glossy, pdf + pdf_g, pdf);
+    }
+    let f = V8::select(reflects, f.scale(cos), V8::zero());
+    Eval { reflects, f, pdf, lobe, cos }
+}
+
+/// The Phong lobe's direction about the mirror direction for the numbers `u` in the lanes
+/// `need` (`Bsdf`'s `sample_glossy`: libm's `powf`, `cos` and `sin` lane by lane).
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // lane `i` of four lane arrays
+fn glossy_direction<I: Isa>(b: &Lobes<I>, u: [F8<I>; 2], need: M8<I>) -> V8<I> {
+    let mut local = V8::zero();
+    if !need.any() {
+        return local;
+    }
+    for i in 0..LANES {
+        if need.lane(i) {
+            let cos_a = u[0][i].powf(1.0 / (b.exponent[i] + 1.0));
+            let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
+            let phi = TAU * u[1][i];
+            local.set(i, Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a));
+        }
+    }
+    to_world(b.mirror_dir, local)
+}
+
+#[inline(always)]
+fn shade8<I: Isa>(l: &Lanes<I>, suns: &[(Vec3, Rgb)]) -> Shaded<I> {
+    let (zero, one) = (F8::zero(), F8::one());
+    let b = &l.bsdf;
+    let origins = RayOrigins8::new(l.position, l.p_error, l.hit_normal);
+
+    // The suns: `LightSet::delta_sample` and `light_samples`' first loop.
+    let none = (M8::none_set(), V8::zero(), V8::zero());
+    let mut sun = [none; SUNS];
+    for (s, &(wi, weight)) in sun.iter_mut().zip(suns) {
+        let wi = V8::new(F8::splat(wi.x), F8::splat(wi.y), F8::splat(wi.z));
+        let f = eval(b, wi).f;
+        let weight = V8::new(F8::splat(weight.x), F8::splat(weight.y), F8::splat(weight.z));
+        *s = (l.lit & any_positive(f), origins.toward(wi), f * weight);
+    }
+
+    // The chosen light: `AreaChoice::sample_from`, operation for operation ...
+    let [va, vb, vc] = l.vertices;
+    let target = va.scale(l.b0) + vb.scale(l.b1) + vc.scale(one - l.b0 - l.b1);
+    let to = target - l.position;
+    let dist2 = to.dot(to);
+    let wi_area = over(to, dist2.sqrt());
+    let n = (vb - va).cross(vc - va);
+    let facing = -n.dot(wi_area);
+    let cos_l = F8::select(l.two_sided, facing.abs(), facing) / n.dot(n).sqrt();
+    let area = l.area & dist2.gt(zero) & cos_l.gt(F8::splat(1e-7));
+    let pdf_area = l.p_choice * dist2 / (l.tri_area * cos_l);
+    // `SurfaceHit::spawn_ray_to(target)`, stopped short of the light.
+    let area_origin = origins.toward(to);
+    let d = target - area_origin;
+    let length = d.dot(d).sqrt();
+    // ... or the sky's direction (`SurfaceHit::spawn_ray`).
+    let found = area | l.sky;
+    let wi = V8::select(l.area, wi_area, l.sky_dir);
+    let pdf_light = F8::select(l.area, pdf_area, l.sky_pdf);
+    let weight = V8::select(l.area, over(l.emission, pdf_area), l.sky_weight);
+    let shadow_origin = V8::select(l.area, area_origin, origins.toward(l.sky_dir));
+    let shadow_dir = V8::select(l.area, over(d, length), l.sky_dir);
+    let shadow_tmax = F8::select(l.area, length * F8::splat(SHADOW_SHORT), F8::splat(f32::INFINITY));
+    // `light_samples`: the BSDF there, weighed against its own sampling.
+    let Eval { f, pdf: pdf_bsdf, .. } = eval(b, wi);
+    let weighed = l.mis & pdf_light.gt(zero);
+    let pdf_bsdf = pdf_bsdf * l.mis_scale;
+    let (a2, b2) = (pdf_light * pdf_light, pdf_bsdf * pdf_bsdf);
+    let heuristic = F8::select((a2 + b2).le(zero), zero, a2 / (a2 + b2));
+    let w = F8::select(weighed, heuristic, one);
+    let shadow = found & any_positive(f);
+    let shadow_brings = (f * weight).scale(w);
+    let shape = b.normal.dot(wi).max(zero) * F8::splat(FRAC_1_PI);
+    let shadow_diffuse = V8::select(pdf_light.gt(zero), weight.scale(w * shape), V8::zero());
+
+    // The bounce: `Bsdf::sample` (tails: the non-delta part chosen by `u_lobe`, else the
+    // delta part, which has no lobe) or `Bsdf::sample_non_delta` (guide vertices), then
+    // `non_delta_direction`: the diffuse lobe's cosine-weighted direction or the glossy one's.
+    let nd = b.p_diffuse + b.p_glossy;
+    let non_delta = (l.tail & l.u_lobe.lt(nd)) | !l.tail;
+    let u_lobe = F8::select(l.tail, l.u_lobe / nd, l.u_lobe);
+    let diffuse = u_lobe.lt(b.p_diffuse / nd);
+    let [dx, dy] = disc8(l.u_bounce);
+    let dz = (one - (dx * dx + dy * dy)).max(zero).sqrt();
+    let cosine = to_world(b.normal, V8::new(dx, dy, dz));
+    let glossy_dir = glossy_direction(b, l.u_bounce, l.bounce.and_not(diffuse));
+    let dir = V8::select(diffuse, cosine, glossy_dir);
+    let Eval { reflects, f, pdf, lobe, cos } = eval(b, dir);
+    let pdf = F8::select(l.tail, pdf, pdf / nd);
+    let mut next = l.bounce & non_delta & reflects & pdf.gt(zero) & pdf.lt(F8::splat(f32::INFINITY));
+    let beta = l.beta * over(f, pdf);
+    // Russian roulette.
+    let q = max_element(beta).min(F8::splat(0.95));
+    let killed = l.rr & (l.u_rr.ge(q) | q.is_nan());
+    next = next.and_not(killed);
+    let beta = V8::select(l.rr, over(beta, q), beta);
+    // `Bsdf::eval_glossy_cos` there (a guide vertex's tail).
+    let glossy = b.glossy * (b.exponent + F8::splat(2.0)) / F8::splat(TAU) * lobe * cos;
+    let next_glossy = F8::select(b.has_glossy & reflects, glossy, zero);
+
+    Shaded {
+        sun,
+        shadow,
+        shadow_origin,
+        shadow_dir,
+        shadow_tmax,
+        shadow_brings,
+        shadow_diffuse,
+        next,
+        next_origin: origins.toward(dir),
+        next_dir: dir,
+        next_beta: beta,
+        next_pdf: pdf,
+        next_shape: b.normal.dot(dir).max(zero) * F8::splat(FRAC_1_PI),
+        next_glossy,
+    }
+}
+
+/// The first `len` lanes' answers onto `out`, lane by lane.
+#[inline(always)]
+fn scatter<I: Isa>(s: &Shaded<I>, suns: usize, len: usize, out: (&mut Vec<PhongResult>, &mut Vec<SunShadow>)) {
+    for i in 0..len {
+        let mut queued = 0;
+        for (k, (lanes, origin, brings)) in s.sun[..suns].iter().enumerate() {
+            if lanes.lane(i) {
+                out.1.push(SunShadow { sun: k as u8, origin: origin.lane(i), brings: brings.lane(i) });
+                queued += 1;
+            }
+        }
+        let shadow = s.shadow.lane(i).then(|| {
+            let ray = Ray::segment(s.shadow_origin.lane(i), s.shadow_dir.lane(i), 0.0, s.shadow_tmax[i]);
+            (ray, s.shadow_brings.lane(i), s.shadow_diffuse.lane(i))
+        });
+        let next = s.next.lane(i).then(|| Next {
+            ray: Ray::new(s.next_origin.lane(i), s.next_dir.lane(i)),
+            beta: s.next_beta.lane(i),
+            pdf: s.next_pdf[i],
+            shape: s.next_shape[i],
+            glossy: s.next_glossy[i],
+        });
+        out.0.push(PhongResult { suns: queued, shadow, next });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glint_accel::lanes::Sse;
+    use glint_core::random::SampleStream;
+    use glint_core::sampling::sample_disc_concentric;
+
+    /// Eight disc points in lanes are the scalar mapping's bits, corners and centre included.
+    #[test]
+    fn eight_disc_points_are_the_scalar_points() {
+        let special = [0.0, 0.5, 1.0 - f32::EPSILON / 2.0, 0.25, 0.75, 0.5 + f32::EPSILON, 0.125, 0.875];
+        let mut s = SampleStream::new(1, 0, 9);
+        for round in 0..4000 {
+            let u: [Vec2; LANES] = std::array::from_fn(|i| {
+                if round < 8 { Vec2::new(special[i], special[(i + round) % 8]) } else { s.next_2d() }
+            });
+            let got = disc8::<Sse>([F8::from_fn(|i| u[i].x), F8::from_fn(|i| u[i].y)]);
+            for (i, u) in u.iter().enumerate() {
+                let want = sample_disc_concentric(*u);
+                assert_eq!((got[0][i].to_bits(), got[1][i].to_bits()), (want.x.to_bits(), want.y.to_bits()), "{u}");
+            }
+        }
+    }
+}
