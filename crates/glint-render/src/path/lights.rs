@@ -105,6 +105,16 @@ pub enum Chosen {
     Sky { dir: Vec3, weight: Rgb, pdf: f32 },
 }
 
+/// Which light [`LightSet::pick`] picks.
+#[derive(Clone, Copy, Debug)]
+pub enum Pick {
+    /// Delta light `i`.
+    Delta(usize),
+    /// Emissive triangle `i` (of the set's).
+    Triangle(usize),
+    Sky,
+}
+
 /// The most directional lights the wavefront's vertices in lanes take ([`LightSet::suns`]).
 pub const SUNS: usize = 2;
 
@@ -235,33 +245,53 @@ impl LightSet {
     }
 
     /// What [`LightSet::sample`] picks from `u_choice` and `u` before it looks from a shading
-    /// point: `None` where it samples nothing. Forced inline, as is `area_choice`: the lanes'
-    /// gather calls it for every vertex.
+    /// point: `None` where it samples nothing.
     #[inline(always)]
     pub fn choose(&self, world: &World, u_choice: f32, u: Vec2) -> Option<Chosen> {
+        match self.pick(u_choice)? {
+            (Pick::Delta(i), p_choice) => Some(Chosen::Delta(i, p_choice)),
+            (Pick::Triangle(i), p_choice) => Some(Chosen::Area(self.area_choice(world, i, p_choice, u))),
+            (Pick::Sky, p_choice) => {
+                let (dir, weight, pdf) = self.sky_choice(world, p_choice, u)?;
+                Some(Chosen::Sky { dir, weight, pdf })
+            }
+        }
+    }
+
+    /// The light `u_choice` picks and the probability of picking it (`None`: no light, or
+    /// one of no probability). The lanes' gather goes on from here with
+    /// [`LightSet::area_choice`] or [`LightSet::sky_choice`], as [`LightSet::choose`] does:
+    /// its `Option<Chosen>` answer went through memory (2 % of a Cornell box frame).
+    #[inline(always)]
+    pub fn pick(&self, u_choice: f32) -> Option<(Pick, f32)> {
         let entry = self.cdf.partition_point(|&c| c <= u_choice).min(self.entries.len().checked_sub(1)?);
         let p_choice = self.choice_probability(entry);
         if p_choice <= 0.0 {
             return None;
         }
-        match self.entries[entry] {
-            Entry::Delta(i) => Some(Chosen::Delta(i, p_choice)),
-            Entry::Triangle(i) => Some(Chosen::Area(self.area_choice(world, i, p_choice, u))),
-            Entry::Sky => {
-                let s = self.sky.as_ref()?.sample(world.sky(), u)?;
-                if s.pdf.is_nan() || s.pdf <= 0.0 {
-                    return None;
-                }
-                let pdf = s.pdf * p_choice;
-                Some(Chosen::Sky { dir: s.dir, weight: s.radiance / pdf, pdf })
-            }
+        Some(match self.entries[entry] {
+            Entry::Delta(i) => (Pick::Delta(i), p_choice),
+            Entry::Triangle(i) => (Pick::Triangle(i), p_choice),
+            Entry::Sky => (Pick::Sky, p_choice),
+        })
+    }
+
+    /// The sky picked with probability `p_choice`: the direction `u` warps to, its radiance
+    /// over its pdf, and that pdf (choice included); `None` where the sky gives no direction.
+    #[inline]
+    pub fn sky_choice(&self, world: &World, p_choice: f32, u: Vec2) -> Option<(Vec3, Rgb, f32)> {
+        let s = self.sky.as_ref()?.sample(world.sky(), u)?;
+        if s.pdf.is_nan() || s.pdf <= 0.0 {
+            return None;
         }
+        let pdf = s.pdf * p_choice;
+        Some((s.dir, s.radiance / pdf, pdf))
     }
 
     /// Triangle `i` chosen with probability `p_choice`, at the point `u` warps to (uniform in
     /// area: Turk's square-root parametrisation).
     #[inline(always)]
-    fn area_choice(&self, world: &World, i: usize, p_choice: f32, u: Vec2) -> AreaChoice {
+    pub fn area_choice(&self, world: &World, i: usize, p_choice: f32, u: Vec2) -> AreaChoice {
         let t = &self.triangles[i];
         let su = u.x.sqrt();
         let (b0, b1) = (1.0 - su, u.y * su);

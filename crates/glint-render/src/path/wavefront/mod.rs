@@ -174,7 +174,6 @@ struct Queues {
     shadows: Vec<Shadow>,
     order: Vec<u32>,
     phong: Vec<PhongVertex>,
-    phong_out: Vec<PhongResult>,
     sun_out: Vec<SunShadow>,
 }
 
@@ -530,26 +529,20 @@ impl<'a> Wavefront<'a> {
                 }
             }
         } else {
-            let mut results = std::mem::take(&mut self.q.phong_out);
             let mut sun_rays = std::mem::take(&mut self.q.sun_out);
             let suns = std::mem::take(&mut self.suns);
             let lights = (self.world, &self.frame.lights, &suns[..]);
-            phong8::shade(lights, paths, hits, &vertices, (&mut results, &mut sun_rays));
-            let mut next_sun = 0;
-            for (v, r) in vertices.iter().zip(&results) {
+            phong8::shade(lights, (paths, hits), &vertices, &mut sun_rays, |v, r, sun| {
                 let path = &paths[v.index as usize];
-                let from = next_sun;
-                next_sun += usize::from(r.suns);
-                let Some(hit) = &hits[v.index as usize] else { continue };
-                let sun = (&suns[..], &sun_rays[from..next_sun]);
+                let Some(hit) = &hits[v.index as usize] else { return };
+                let sun = (&suns[..], sun);
                 match (&v.kind, &path.leg) {
-                    (Kind::Tail, Leg::Tail(leg)) => self.tail_result(path, *leg, hit, v, (r, sun)),
-                    (Kind::Guide(g), _) => self.guide_result(path, hit, g, v, (r, sun)),
+                    (Kind::Tail, Leg::Tail(leg)) => self.tail_result(path, *leg, hit, v, (&r, sun)),
+                    (Kind::Guide(g), _) => self.guide_result(path, hit, g, v, (&r, sun)),
                     _ => {}
                 }
-            }
+            });
             self.suns = suns;
-            self.q.phong_out = results;
             self.q.sun_out = sun_rays;
         }
         vertices.clear();
@@ -559,7 +552,7 @@ impl<'a> Wavefront<'a> {
     /// A vertex's shadow rays from the lanes, queued as `light_samples` queues them: its
     /// suns' (`suns`: the scene's suns, then the vertex's rays toward them), then the chosen
     /// light's.
-    #[inline]
+    #[inline(always)]
     fn queue_shadows(&mut self, (r, suns): Answer, dest: Dest) {
         let filter_direct = self.frame.params.filter_area_direct;
         for s in suns.1 {
@@ -574,6 +567,7 @@ impl<'a> Wavefront<'a> {
     }
 
     /// A tail vertex's lanes answer queued as `continue_tail` queues it.
+    #[inline(always)]
     fn tail_result(&mut self, path: &Path, leg: TailLeg, hit: &SurfaceHit, v: &PhongVertex, answer: Answer) {
         self.queue_shadows(answer, Dest::Tail { tail: leg.tail, beta: leg.beta });
         let r = answer.0;
@@ -587,6 +581,7 @@ impl<'a> Wavefront<'a> {
     }
 
     /// A guide vertex's lanes answer queued as `guide_vertex` queues it.
+    #[inline(always)]
     fn guide_result(&mut self, path: &Path, hit: &SurfaceHit, g: &Guide, v: &PhongVertex, answer: Answer) {
         let params = self.frame.params;
         let (slot, throughput, trace) = (path.slot, g.throughput, g.trace);

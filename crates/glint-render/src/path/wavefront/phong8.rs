@@ -31,7 +31,7 @@
 
 use super::{Path, TailLeg};
 use crate::path::bsdf::{Bsdf, PhongParts};
-use crate::path::lights::{Chosen, LightSet, SHADOW_SHORT, SUNS};
+use crate::path::lights::{LightSet, Pick, SHADOW_SHORT, SUNS};
 use crate::world::{SurfaceHit, World};
 use glint_accel::batch::RayOrigins8;
 use glint_accel::lanes::{F8, Isa, LANES, LaneKernel, M8, V8, dispatch};
@@ -170,11 +170,9 @@ pub(super) struct Next {
     pub glossy: f32,
 }
 
-/// What a vertex gives back.
+/// What a vertex gives back (besides its suns' shadow rays).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct PhongResult {
-    /// How many of its suns' shadow rays follow the previous vertex's in [`SunShadow`]s.
-    pub suns: u8,
     /// The chosen light's shadow ray, what it brings (`f·cos·L/pdf` × the MIS weight) and
     /// that light's diffuse part demodulated (`light_samples`' two colours).
     pub shadow: Option<(Ray, Rgb, Rgb)>,
@@ -183,8 +181,7 @@ pub(super) struct PhongResult {
 
 /// A sun's shadow ray from a vertex (sun `sun` of [`LightSet::suns`], from `origin`) and what
 /// it brings when nothing blocks it (`f·cos·L·π`). Kept apart from [`PhongResult`]: a scene
-/// without suns writes none (two empty slots a vertex cost the Cornell box 10 %: its
-/// results no longer stayed in cache).
+/// without suns writes none.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct SunShadow {
     pub sun: u8,
@@ -194,39 +191,42 @@ pub(super) struct SunShadow {
 
 /// Shade `vertices` (whose paths and hits are `paths[v.index]`, `hits[v.index]`, each with
 /// a hit) eight at a time with the best instruction set this CPU has, under the suns
-/// `suns` ([`LightSet::suns`]); `out.0[i]` is vertex `i`'s result, `out.1` its suns' shadow
-/// rays in vertex order.
+/// `suns` ([`LightSet::suns`]), handing each vertex's answer to `apply` in their order:
+/// the vertex, its result and its suns' shadow rays (`sun_rays` holds a lane's). Each answer
+/// is taken from the lanes and applied at once: written out for the whole round and read
+/// back, the answers' loads waited on memory or stalled on store forwarding (a few percent
+/// of a Cornell box frame).
 pub(super) fn shade(
     (world, lights, suns): (&World, &LightSet, &[(Vec3, Rgb)]),
-    paths: &[Path],
-    hits: &[Option<SurfaceHit>],
+    (paths, hits): (&[Path], &[Option<SurfaceHit>]),
     vertices: &[PhongVertex],
-    out: (&mut Vec<PhongResult>, &mut Vec<SunShadow>),
+    sun_rays: &mut Vec<SunShadow>,
+    apply: impl FnMut(&PhongVertex, PhongResult, &[SunShadow]),
 ) {
-    out.0.clear();
-    out.1.clear();
-    dispatch(Kernel { world, lights, suns, paths, hits, vertices, out }, crate::lanes_baseline());
+    let kernel = Kernel { world, lights, suns, paths, hits, vertices, sun_rays, apply };
+    dispatch(kernel, crate::lanes_baseline());
 }
 
-struct Kernel<'a> {
+struct Kernel<'a, F> {
     world: &'a World,
     lights: &'a LightSet,
     suns: &'a [(Vec3, Rgb)],
     paths: &'a [Path],
     hits: &'a [Option<SurfaceHit>],
     vertices: &'a [PhongVertex],
-    out: (&'a mut Vec<PhongResult>, &'a mut Vec<SunShadow>),
+    sun_rays: &'a mut Vec<SunShadow>,
+    apply: F,
 }
 
-impl LaneKernel for Kernel<'_> {
+impl<F: FnMut(&PhongVertex, PhongResult, &[SunShadow])> LaneKernel for Kernel<'_, F> {
     type Output = ();
 
     #[inline(always)]
-    fn run<I: Isa>(self) {
+    fn run<I: Isa>(mut self) {
         for chunk in self.vertices.chunks(LANES) {
             let lanes = gather::<I>(chunk, self.paths, self.hits, (self.world, self.lights));
             let shaded = shade8(&lanes, self.suns);
-            scatter(&shaded, self.suns.len(), chunk.len(), (&mut *self.out.0, &mut *self.out.1));
+            scatter(&shaded, chunk, self.suns.len(), &mut *self.sun_rays, &mut self.apply);
         }
     }
 }
@@ -254,6 +254,8 @@ struct Lanes<I: Isa> {
     /// The hit's geometric normal as the geometry orients it (ray origins' side test).
     hit_normal: V8<I>,
     bsdf: Lobes<I>,
+    /// Every lane a lone Lambertian lobe (chosen with probability 1).
+    lambertian: bool,
     beta: V8<I>,
     tail: M8<I>,
     /// Lanes that sample light (the suns, and the choice unless it found nothing).
@@ -304,6 +306,7 @@ fn gather<I: Isa>(
         p_error: zero3,
         hit_normal: zero3,
         bsdf,
+        lambertian: false,
         beta: zero3,
         tail: none,
         lit: none,
@@ -338,6 +341,7 @@ fn gather<I: Isa>(
     });
     if lambertian {
         l.bsdf.p_diffuse = F8::one();
+        l.lambertian = true;
     }
     for i in 0..LANES {
         let v = &chunk[i.min(chunk.len() - 1)];
@@ -371,8 +375,9 @@ fn gather<I: Isa>(
             lit |= bit;
             // The light's triangle and point, or the sky's direction, as `LightSet::sample`
             // chooses them.
-            match lights.choose(world, u_choice, u) {
-                Some(Chosen::Area(c)) => {
+            match lights.pick(u_choice) {
+                Some((Pick::Triangle(t), p_choice)) => {
+                    let c = lights.area_choice(world, t, p_choice, u);
                     area |= bit;
                     if c.two_sided {
                         two_sided |= bit;
@@ -386,14 +391,16 @@ fn gather<I: Isa>(
                     l.b1[i] = c.b1;
                     l.emission.set(i, c.emission);
                 }
-                Some(Chosen::Sky { dir, weight, pdf }) => {
-                    sky |= bit;
-                    l.sky_dir.set(i, dir);
-                    l.sky_weight.set(i, weight);
-                    l.sky_pdf[i] = pdf;
+                Some((Pick::Sky, p_choice)) => {
+                    if let Some((dir, weight, pdf)) = lights.sky_choice(world, p_choice, u) {
+                        sky |= bit;
+                        l.sky_dir.set(i, dir);
+                        l.sky_weight.set(i, weight);
+                        l.sky_pdf[i] = pdf;
+                    }
                 }
                 // `LightSet::suns` admits no delta light into the choice.
-                Some(Chosen::Delta(..)) | None => {}
+                Some((Pick::Delta(_), _)) | None => {}
             }
         }
         if let Some(scale) = v.mis {
@@ -598,13 +605,19 @@ fn shade8<I: Isa>(l: &Lanes<I>, suns: &[(Vec3, Rgb)]) -> Shaded<I> {
     let d = target - area_origin;
     let length = d.dot(d).sqrt();
     // ... or the sky's direction (`SurfaceHit::spawn_ray`).
-    let found = area | l.sky;
-    let wi = V8::select(l.area, wi_area, l.sky_dir);
-    let pdf_light = F8::select(l.area, pdf_area, l.sky_pdf);
-    let weight = V8::select(l.area, over(l.emission, pdf_area), l.sky_weight);
-    let shadow_origin = V8::select(l.area, area_origin, origins.toward(l.sky_dir));
-    let shadow_dir = V8::select(l.area, over(d, length), l.sky_dir);
-    let shadow_tmax = F8::select(l.area, length * F8::splat(SHADOW_SHORT), F8::splat(f32::INFINITY));
+    let (mut found, mut wi, mut pdf_light) = (area, wi_area, pdf_area);
+    let mut weight = over(l.emission, pdf_area);
+    let (mut shadow_origin, mut shadow_dir) = (area_origin, over(d, length));
+    let mut shadow_tmax = length * F8::splat(SHADOW_SHORT);
+    if l.sky.any() {
+        found = found | l.sky;
+        wi = V8::select(l.area, wi, l.sky_dir);
+        pdf_light = F8::select(l.area, pdf_light, l.sky_pdf);
+        weight = V8::select(l.area, weight, l.sky_weight);
+        shadow_origin = V8::select(l.area, shadow_origin, origins.toward(l.sky_dir));
+        shadow_dir = V8::select(l.area, shadow_dir, l.sky_dir);
+        shadow_tmax = F8::select(l.area, shadow_tmax, F8::splat(f32::INFINITY));
+    }
     // `light_samples`: the BSDF there, weighed against its own sampling.
     let Eval { f, pdf: pdf_bsdf, .. } = eval(b, wi);
     let weighed = l.mis & pdf_light.gt(zero);
@@ -622,15 +635,20 @@ fn shade8<I: Isa>(l: &Lanes<I>, suns: &[(Vec3, Rgb)]) -> Shaded<I> {
     // `non_delta_direction`: the diffuse lobe's cosine-weighted direction or the glossy one's.
     let nd = b.p_diffuse + b.p_glossy;
     let non_delta = (l.tail & l.u_lobe.lt(nd)) | !l.tail;
-    let u_lobe = F8::select(l.tail, l.u_lobe / nd, l.u_lobe);
-    let diffuse = u_lobe.lt(b.p_diffuse / nd);
+    // Lambertian lanes: `nd` is 1, so the quotients are their dividends.
+    let (u_lobe, ratio) = if l.lambertian {
+        (l.u_lobe, b.p_diffuse)
+    } else {
+        (F8::select(l.tail, l.u_lobe / nd, l.u_lobe), b.p_diffuse / nd)
+    };
+    let diffuse = u_lobe.lt(ratio);
     let [dx, dy] = disc8(l.u_bounce);
     let dz = (one - (dx * dx + dy * dy)).max(zero).sqrt();
     let cosine = to_world(b.normal, V8::new(dx, dy, dz));
     let glossy_dir = glossy_direction(b, l.u_bounce, l.bounce.and_not(diffuse));
     let dir = V8::select(diffuse, cosine, glossy_dir);
     let Eval { reflects, f, pdf, lobe, cos } = eval(b, dir);
-    let pdf = F8::select(l.tail, pdf, pdf / nd);
+    let pdf = if l.lambertian { pdf } else { F8::select(l.tail, pdf, pdf / nd) };
     let mut next = l.bounce & non_delta & reflects & pdf.gt(zero) & pdf.lt(F8::splat(f32::INFINITY));
     let beta = l.beta * over(f, pdf);
     // Russian roulette.
@@ -660,15 +678,20 @@ fn shade8<I: Isa>(l: &Lanes<I>, suns: &[(Vec3, Rgb)]) -> Shaded<I> {
     }
 }
 
-/// The first `len` lanes' answers onto `out`, lane by lane.
+/// The chunk's answers, lane by lane, to `apply` (`sun_rays`: a lane's suns' shadow rays).
 #[inline(always)]
-fn scatter<I: Isa>(s: &Shaded<I>, suns: usize, len: usize, out: (&mut Vec<PhongResult>, &mut Vec<SunShadow>)) {
-    for i in 0..len {
-        let mut queued = 0;
+fn scatter<I: Isa>(
+    s: &Shaded<I>,
+    chunk: &[PhongVertex],
+    suns: usize,
+    sun_rays: &mut Vec<SunShadow>,
+    apply: &mut impl FnMut(&PhongVertex, PhongResult, &[SunShadow]),
+) {
+    for (i, v) in chunk.iter().enumerate() {
+        sun_rays.clear();
         for (k, (lanes, origin, brings)) in s.sun[..suns].iter().enumerate() {
             if lanes.lane(i) {
-                out.1.push(SunShadow { sun: k as u8, origin: origin.lane(i), brings: brings.lane(i) });
-                queued += 1;
+                sun_rays.push(SunShadow { sun: k as u8, origin: origin.lane(i), brings: brings.lane(i) });
             }
         }
         let shadow = s.shadow.lane(i).then(|| {
@@ -682,7 +705,7 @@ fn scatter<I: Isa>(s: &Shaded<I>, suns: usize, len: usize, out: (&mut Vec<PhongR
             shape: s.next_shape[i],
             glossy: s.next_glossy[i],
         });
-        out.0.push(PhongResult { suns: queued, shadow, next });
+        apply(v, PhongResult { shadow, next }, sun_rays);
     }
 }
 
