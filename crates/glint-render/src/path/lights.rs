@@ -93,18 +93,6 @@ impl AreaChoice {
     }
 }
 
-/// What the choice among the lights not sampled at every point picks, before it looks from
-/// a shading point ([`LightSet::choose`]).
-#[derive(Clone, Copy, Debug)]
-pub enum Chosen {
-    /// Delta light `i`, chosen with this probability.
-    Delta(usize, f32),
-    /// A point on an emissive triangle.
-    Area(AreaChoice),
-    /// A direction toward the sky, its radiance over its pdf, and that pdf (choice included).
-    Sky { dir: Vec3, weight: Rgb, pdf: f32 },
-}
-
 /// Which light [`LightSet::pick`] picks.
 #[derive(Clone, Copy, Debug)]
 pub enum Pick {
@@ -227,7 +215,7 @@ impl LightSet {
     /// The lights as the wavefront's vertices in lanes take them, where they can: the
     /// directional lights of [`LightSet::each_delta`] (at most [`SUNS`], as incident
     /// direction and `L·π`, what [`LightSet::delta_sample`] gives at every point), the other
-    /// lights all in [`LightSet::choose`]'s choice among triangles and the sky. `None` for
+    /// lights all in the one choice among triangles and the sky ([`LightSet::pick`]). `None` for
     /// point and spot lights, more suns, or delta lights in the choice.
     pub fn suns(&self) -> Option<Vec<(Vec3, Rgb)>> {
         if !self.each_delta || self.delta_lights.len() > SUNS {
@@ -244,24 +232,10 @@ impl LightSet {
         suns.collect()
     }
 
-    /// What [`LightSet::sample`] picks from `u_choice` and `u` before it looks from a shading
-    /// point: `None` where it samples nothing.
-    #[inline(always)]
-    pub fn choose(&self, world: &World, u_choice: f32, u: Vec2) -> Option<Chosen> {
-        match self.pick(u_choice)? {
-            (Pick::Delta(i), p_choice) => Some(Chosen::Delta(i, p_choice)),
-            (Pick::Triangle(i), p_choice) => Some(Chosen::Area(self.area_choice(world, i, p_choice, u))),
-            (Pick::Sky, p_choice) => {
-                let (dir, weight, pdf) = self.sky_choice(world, p_choice, u)?;
-                Some(Chosen::Sky { dir, weight, pdf })
-            }
-        }
-    }
-
     /// The light `u_choice` picks and the probability of picking it (`None`: no light, or
-    /// one of no probability). The lanes' gather goes on from here with
-    /// [`LightSet::area_choice`] or [`LightSet::sky_choice`], as [`LightSet::choose`] does:
-    /// its `Option<Chosen>` answer went through memory (2 % of a Cornell box frame).
+    /// one of no probability). [`LightSet::sample`] and the lanes' gather go on from here
+    /// with [`LightSet::area_choice`] or [`LightSet::sky_choice`] (an enum of their answers,
+    /// returned to the gather, went through memory: 2 % of a Cornell box frame).
     #[inline(always)]
     pub fn pick(&self, u_choice: f32) -> Option<(Pick, f32)> {
         let entry = self.cdf.partition_point(|&c| c <= u_choice).min(self.entries.len().checked_sub(1)?);
@@ -309,14 +283,17 @@ impl LightSet {
     /// One light sample for the shading point `hit`, from `u_choice` and `u`, among the lights
     /// not in [`LightSet::each_delta`].
     pub fn sample(&self, world: &World, hit: &SurfaceHit, u_choice: f32, u: Vec2) -> Option<LightSample> {
-        match self.choose(world, u_choice, u)? {
-            Chosen::Delta(i, p_choice) => {
+        match self.pick(u_choice)? {
+            (Pick::Delta(i), p_choice) => {
                 let mut s = self.delta_sample(&self.delta_lights[i], hit)?;
                 s.weight /= p_choice;
                 Some(s)
             }
-            Chosen::Area(c) => c.sample_from(hit),
-            Chosen::Sky { dir, weight, pdf } => Some(LightSample { wi: dir, shadow: hit.spawn_ray(dir), weight, pdf }),
+            (Pick::Triangle(i), p_choice) => self.area_choice(world, i, p_choice, u).sample_from(hit),
+            (Pick::Sky, p_choice) => {
+                let (dir, weight, pdf) = self.sky_choice(world, p_choice, u)?;
+                Some(LightSample { wi: dir, shadow: hit.spawn_ray(dir), weight, pdf })
+            }
         }
     }
 

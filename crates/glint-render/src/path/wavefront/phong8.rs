@@ -10,7 +10,7 @@
 //! their random numbers drawn in the scalar code's order), then shaded eight to a kernel call
 //! ([`shade`]), in three steps:
 //! 1. **gather**: each lane's hit, BSDF, path state and light choice (the triangle and point,
-//!    or the sky's direction, that `LightSet::choose` picks) into lanes;
+//!    or the sky's direction, that `LightSet::sample` would pick) into lanes;
 //! 2. **lanes**: each sun's shadow ray and what it brings; the chosen light's point,
 //!    direction, pdf and shadow ray ([`crate::path::lights::AreaChoice::sample_from`], or the
 //!    sky's direction), the BSDF's value and pdf there, the power heuristic; the bounce (the
