@@ -446,8 +446,30 @@ pub struct PathArgs {
     /// sampler. Default: the scene's (`[render] sampler`; sobol).
     #[arg(long, value_enum)]
     pub sampler: Option<SamplerArg>,
+    /// Path mode, unfiltered, with a pixel filter wider than a pixel (a Mitsuba film's
+    /// gaussian or tent): splat: each sample, uniform in its pixel, adds to every pixel the
+    /// filter reaches, weighted (Mitsuba's film: lower error per sample, neighbours
+    /// correlated); sample: each sample's position is drawn from the filter and it stays in
+    /// its pixel (pbrt-v4's; pixels independent, with a Variance AOV).
+    #[arg(long, value_enum, default_value = "splat")]
+    pub reconstruction: ReconstructionArg,
     #[command(flatten)]
     pub filter_options: FilterOptions,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ReconstructionArg {
+    Splat,
+    Sample,
+}
+
+impl From<ReconstructionArg> for glint_core::Reconstruction {
+    fn from(r: ReconstructionArg) -> Self {
+        match r {
+            ReconstructionArg::Splat => glint_core::Reconstruction::Splat,
+            ReconstructionArg::Sample => glint_core::Reconstruction::Sample,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

@@ -86,6 +86,45 @@ fn merged_chunks_are_the_single_render_bit_for_bit() {
     assert_merge_is_single(&window, 3, &d);
 }
 
+/// Mitsuba's Cornell box has a Gaussian film: its samples are splatted into the pixels around
+/// theirs. Split by samples or by tiles (each tile traced with the splats' reach around it),
+/// cropped, and on one thread, the frame is the single render's bit for bit.
+#[test]
+fn splatted_frames_merge_crop_and_thread_bit_for_bit() {
+    let Some(xml) = common::shared("data/mitsuba/scenes/cbox/cbox.xml") else { return };
+    let xml = xml.display().to_string();
+    let d = scratch("splat-merge");
+    let plain = ["render", &xml, "-D", "res=40", "--spp", "5", "--max-bounces", "2"];
+    assert_merge_is_single(&plain, 3, &d);
+    for n in [2, 5] {
+        assert_split_is_single(&plain, "--tile", n, &d);
+    }
+    let window: Vec<&str> = [&plain[..], &["--crop", "7,3,33,21"]].concat();
+    assert_split_is_single(&window, "--tile", 4, &d);
+    // A crop of the frame: its own pixels (those at its edges hold splats from outside it).
+    ok(&[&plain[..], &["-q", "-o", "whole.exr"]].concat(), &d);
+    ok(&[&window[..], &["-q", "-o", "window.exr"]].concat(), &d);
+    ok(&[&plain[..], &["-q", "--threads", "1", "-o", "one.exr"]].concat(), &d);
+    let read = |f: &str| glint_image::read_image(&d.join(f)).unwrap();
+    let (whole, window, one) = (read("whole.exr"), read("window.exr"), read("one.exr"));
+    for c in ["R", "G", "B", "Direct.R", "Indirect.B", "SampleCount"] {
+        let (a, b) = (whole.channel(c).unwrap(), window.channel(c).unwrap());
+        for y in 0..18 {
+            for x in 0..26 {
+                let (f, k) = (a[(y + 3) * 40 + x + 7], b[y * 26 + x]);
+                assert_eq!(f.to_bits(), k.to_bits(), "{c} at ({x}, {y}) of the crop: {k} vs the frame's {f}");
+            }
+        }
+        assert_eq!(a, one.channel(c).unwrap(), "{c}: one thread");
+    }
+    assert!(whole.channel("Variance.R").is_none(), "a splatted pixel has no per-sample variance");
+    // Drawn from the filter instead, the pixels differ, and the variance is there.
+    ok(&[&plain[..], &["-q", "--reconstruction", "sample", "-o", "sampled.exr"]].concat(), &d);
+    let sampled = read("sampled.exr");
+    assert!(sampled.channel("Variance.R").is_some());
+    assert_ne!(sampled.channel("R").unwrap(), whole.channel("R").unwrap());
+}
+
 #[test]
 fn merged_tiles_and_whitted_chunks_are_the_single_render_bit_for_bit() {
     let d = scratch("tile-merge");

@@ -21,5 +21,5 @@ pub use colour::Rgb;
 pub use frame::Frame;
 pub use glam;
 pub use glam::{Affine3A, Mat3, Mat4, Quat, UVec2, Vec2, Vec3, Vec3A, Vec4};
-pub use pixel_filter::{PixelFilter, PixelSampler};
+pub use pixel_filter::{PixelFilter, PixelSampler, Reconstruction};
 pub use ray::Ray;

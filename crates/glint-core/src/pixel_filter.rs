@@ -1,14 +1,19 @@
-//! Pixel reconstruction filters, applied by importance sampling the sample positions.
+//! Pixel reconstruction filters: sample positions drawn from them, or samples splatted through
+//! them.
 //!
 //! A film with a filter f computes at each pixel centre p the weighted average
-//! ∫ f(x − p) L(x) dx / ∫ f. Mitsuba splats every sample into the pixels its filter covers and
-//! divides by the summed weights; pbrt-v4 instead draws each sample's offset from the filter
-//! itself, so every sample has the same weight and stays in its own pixel (pbrt-v4, "Filter
-//! Sampling"). For the non-negative filters here both converge to the same image; sampling
-//! keeps glint's pixels independent (tiles, bands and thread counts do not interact), and the
-//! variance of a pixel stays the variance of one sample over the sample count.
+//! ∫ f(x − p) L(x) dx / ∫ f. Two estimators of it ([`Reconstruction`]):
+//! - **Splatting** (Mitsuba's film): sample positions are uniform in their pixel, and every
+//!   sample adds `f(centre − x) · L` and `f(centre − x)` to each pixel whose centre its filter
+//!   reaches; a pixel is the ratio of the two sums. A pixel averages the samples of about
+//!   `(∫ f)² / ∫ f²` pixels (3.1 for Mitsuba's default Gaussian, σ = ½), so its error at the
+//!   same samples per pixel is that many times lower, at the price of correlated neighbours.
+//! - **Sampling** (pbrt-v4, "Filter Sampling"): each sample's offset is drawn from the filter
+//!   itself, so every sample has the same weight and stays in its own pixel: pixels are
+//!   independent and a pixel's variance is one sample's over the sample count.
 //!
-//! Filters are separable: the 2-D offset is two independent 1-D offsets.
+//! For the non-negative filters here both converge to the same image. Filters are separable:
+//! the 2-D offset is two independent 1-D offsets, a 2-D weight the product of two 1-D ones.
 
 use glam::Vec2;
 
@@ -25,6 +30,22 @@ pub enum PixelFilter {
     Gaussian { stddev: f32 },
 }
 
+/// How a film wider than a pixel turns samples into pixels (see the module comment). A box
+/// filter (radius ½) reaches no other pixel: both are the same estimator there.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Reconstruction {
+    /// Positions uniform in the pixel, each sample weighted into every pixel the filter
+    /// reaches (Mitsuba's film): lower error per sample.
+    #[default]
+    Splat,
+    /// Positions drawn from the filter, each sample in its own pixel (pbrt-v4's).
+    Sample,
+}
+
+/// The most pixels a splat reaches on either side of its own along one axis
+/// ([`PixelFilter::reach`] of the widest filter accepted).
+pub const MAX_REACH: usize = 16;
+
 /// The widest filter accepted, in pixels (a wider one blurs more than any film filter should).
 pub const MAX_FILTER_RADIUS: f32 = 16.0;
 
@@ -35,6 +56,27 @@ impl PixelFilter {
             PixelFilter::Box => 0.5,
             PixelFilter::Tent { radius } => radius,
             PixelFilter::Gaussian { stddev } => 4.0 * stddev,
+        }
+    }
+
+    /// How many pixels on either side of its own a sample in a pixel can reach along one
+    /// axis: the pixels `i` whose centre `i + ½` lies within the radius of some position
+    /// `x + o`, `o ∈ [0, 1)`, that is `|i − x| ≤ ⌈r + ½⌉ − 1` (0 for the box, 2 for Mitsuba's
+    /// Gaussian). At most [`MAX_REACH`] for a valid filter.
+    pub fn reach(&self) -> usize {
+        ((self.radius() + 0.5).ceil() as usize).saturating_sub(1).min(MAX_REACH)
+    }
+
+    /// The 1-D splat weights of a sample at offset `o ∈ [0, 1)` within its pixel: `out[j]` is
+    /// the profile at the centre of the pixel `j − reach` away, `eval(j − reach + ½ − o)`, for
+    /// `j` in `0..=2·reach` (entries beyond are left alone). The distance is formed from the
+    /// small integer and the offset alone, so a pixel's weights do not depend on where the
+    /// pixel is in the image (a tile's splats are the whole frame's bit for bit).
+    #[inline]
+    pub fn splat_weights(&self, o: f32, out: &mut [f32; 2 * MAX_REACH + 1]) {
+        let reach = self.reach();
+        for (j, w) in out.iter_mut().enumerate().take(2 * reach + 1) {
+            *w = self.eval((j as f32 - reach as f32) + (0.5 - o));
         }
     }
 
@@ -212,6 +254,43 @@ mod tests {
         }
     }
 
+    /// Splat weights: the box keeps a sample in its pixel; every filter's reach holds each
+    /// pixel it can weight (a position just inside either edge of the pixel reaches the outer
+    /// ones), and no pixel beyond it; the weights are the profile at the centres.
+    #[test]
+    fn splat_weights_reach_exactly_the_pixels_the_filter_covers() {
+        let mut w = [f32::NAN; 2 * MAX_REACH + 1];
+        PixelFilter::Box.splat_weights(0.3, &mut w);
+        assert_eq!((PixelFilter::Box.reach(), w[0]), (0, 1.0));
+        let filters = [
+            (PixelFilter::Tent { radius: 1.0 }, 1),
+            (PixelFilter::Tent { radius: 2.5 }, 2),
+            (PixelFilter::Gaussian { stddev: 0.5 }, 2),
+            (PixelFilter::Gaussian { stddev: 1.3 }, 5),
+            (PixelFilter::Gaussian { stddev: 4.0 }, MAX_REACH),
+        ];
+        for (f, reach) in filters {
+            assert_eq!(f.reach(), reach, "{f:?}");
+            let r = f.radius();
+            for o in [0.0, 1e-4, 0.25, 0.5, 0.75, 0.9999] {
+                let mut w = [f32::NAN; 2 * MAX_REACH + 1];
+                f.splat_weights(o, &mut w);
+                for (j, &wj) in w.iter().enumerate().take(2 * reach + 1) {
+                    let d = j as f32 - reach as f32 + 0.5 - o;
+                    assert_eq!(wj, f.eval(d), "{f:?} o {o} j {j}");
+                }
+                assert!(w[2 * reach + 1..].iter().all(|v| v.is_nan()), "{f:?}: wrote beyond its reach");
+                // Beyond the reach, no position in the pixel has weight.
+                let beyond = reach as f32 + 1.0;
+                assert_eq!(f.eval(beyond + 0.5 - o), 0.0, "{f:?} o {o}");
+                assert_eq!(f.eval(-beyond + 0.5 - o), 0.0, "{f:?} o {o}");
+            }
+            // The outermost pixels are reached from one edge or the other.
+            let edge = |o: f32| f.eval(reach as f32 + 0.5 - o);
+            assert!(edge(0.9999) > 0.0 || r <= reach as f32 - 0.5, "{f:?}: reach {reach} is too wide");
+        }
+    }
+
     #[test]
     fn the_box_keeps_the_uniform_position_exactly() {
         let s = PixelSampler::new(PixelFilter::Box);
@@ -225,5 +304,7 @@ mod tests {
         assert!(PixelFilter::Tent { radius: 0.0 }.validate().is_err());
         assert!(PixelFilter::Tent { radius: f32::NAN }.validate().is_err());
         assert!(PixelFilter::Gaussian { stddev: 100.0 }.validate().is_err());
+        assert!(PixelFilter::Tent { radius: MAX_FILTER_RADIUS }.validate().is_ok());
+        assert_eq!(PixelFilter::Tent { radius: MAX_FILTER_RADIUS }.reach(), MAX_REACH);
     }
 }

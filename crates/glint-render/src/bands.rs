@@ -47,11 +47,17 @@ impl<'a> Hooks<'a> {
     /// Run `f` with hooks that report this frame's rows while each of `passes` passes
     /// reports all of them: a row of the frame per `passes` rows reported.
     pub(crate) fn over_passes<R>(&self, passes: u64, f: impl FnOnce(&Hooks) -> R) -> R {
+        self.scaled(1, passes, f)
+    }
+
+    /// Run `f` with hooks that report `shown` rows of this frame for every `traced` rows `f`
+    /// reports (whole rows, as they complete).
+    pub(crate) fn scaled<R>(&self, shown: u64, traced: u64, f: impl FnOnce(&Hooks) -> R) -> R {
         let rows = std::sync::atomic::AtomicU64::new(0);
-        let passes = passes.max(1);
+        let traced = traced.max(1);
         let report = |r: u64| {
             let before = rows.fetch_add(r, Ordering::Relaxed);
-            let whole = (before + r) / passes - before / passes;
+            let whole = (before + r) * shown / traced - before * shown / traced;
             if whole > 0 {
                 self.report(whole);
             }

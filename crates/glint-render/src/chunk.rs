@@ -5,7 +5,8 @@
 //!
 //! Channels of a path part (its region's pixels): every fixed-point sum ([`crate::fixed`]) as
 //! little-endian u32 words, `sum.<quantity>.<R|G|B>.w<k>` (colour, Direct, Indirect: 4 words;
-//! Square, without a filter: 6 words), the counts `count.samples` and `count.covered` (u32),
+//! Square, without a filter unless splatted: 6 words; the splat's `sum.weight.w<k>`: 4 words),
+//! the counts `count.samples` and `count.covered` (u32),
 //! and in the chunk holding the frame's first unit, the first sample's AOVs as f32
 //! (`first.Albedo.R/G/B`, `first.Ns.X/Y/Z`, `first.Z`). Channels of a Whitted part (f32):
 //! `whitted.<R|G|B>`, `whitted.N.<X|Y|Z>`, `whitted.Albedo.<R|G|B>`, `whitted.Z`,
@@ -16,7 +17,8 @@
 //! `glint.hash` (of everything that changes the picture, given by the caller), `glint.kind`
 //! (`path` or `whitted`), `glint.split` (`samples` or `tiles`), `glint.chunk` (`I/N`),
 //! `glint.units` (`first..end/total`), `glint.frame` (`WxH`), `glint.region`
-//! (`x0,y0,w,h`), `glint.filtered`, and the caller's `glint.setting.*` (what the merge needs
+//! (`x0,y0,w,h`), `glint.filtered`, `glint.splat` (samples splatted through the pixel
+//! filter: [`PathSums::splat`]), and the caller's `glint.setting.*` (what the merge needs
 //! to finish the frame as the single run would: tone map, exposure).
 //!
 //! [`merge`] checks a set of chunks against each other (one frame, every chunk once, the
@@ -34,7 +36,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 /// What the `glint.format` field says: the layout this module reads and writes.
-pub const FORMAT: &str = "glint-chunk 2";
+pub const FORMAT: &str = "glint-chunk 3";
 /// The header attribute (type string) that holds the fields, one `name=value` line each.
 pub const HEADER: &str = "glint";
 
@@ -146,10 +148,10 @@ impl Chunk {
     /// The EXR table of this chunk.
     #[must_use]
     pub fn to_table(&self) -> ExrTable {
-        let (kind, filtered, (width, height), channels) = match &self.part {
-            Part::Path(sums) => ("path", sums.filtered, (sums.width, sums.height), path_channels(sums)),
+        let (kind, filtered, splat, (width, height), channels) = match &self.part {
+            Part::Path(sums) => ("path", sums.filtered, sums.splat, (sums.width, sums.height), path_channels(sums)),
             Part::Whitted(w) => {
-                ("whitted", false, (w.width, w.pixels.len() as u32 / w.width.max(1)), whitted_channels(w))
+                ("whitted", false, false, (w.width, w.pixels.len() as u32 / w.width.max(1)), whitted_channels(w))
             }
         };
         let r = self.region;
@@ -164,6 +166,7 @@ impl Chunk {
             ("glint.frame".into(), format!("{}x{}", self.frame.0, self.frame.1)),
             ("glint.region".into(), format!("{},{},{},{}", r.x0, r.y0, r.width, r.height)),
             ("glint.filtered".into(), filtered.to_string()),
+            ("glint.splat".into(), splat.to_string()),
         ];
         attributes.extend(self.settings.iter().map(|(k, v)| (format!("glint.setting.{k}"), v.clone())));
         // One header attribute holds them all, a `name=value` line each: the exr crate keeps
@@ -225,11 +228,12 @@ impl Chunk {
             })
             .filter(|&(a, b, n)| a < b && b <= n)
             .ok_or_else(|| bad("glint.units", units))?;
-        let filtered = match attr("glint.filtered")? {
-            "true" => true,
-            "false" => false,
-            v => return Err(bad("glint.filtered", v)),
+        let flag = |name: &str| match attr(name)? {
+            "true" => Ok(true),
+            "false" => Ok(false),
+            v => Err(bad(name, v)),
         };
+        let (filtered, splat) = (flag("glint.filtered")?, flag("glint.splat")?);
         let split = match attr("glint.split")? {
             "samples" => Split::Samples,
             "tiles" => Split::Tiles,
@@ -274,7 +278,7 @@ impl Chunk {
             ));
         }
         let part = match attr("glint.kind")? {
-            "path" => Part::Path(read_path(path, t, filtered, first_unit == 0, end_unit - first_unit)?),
+            "path" => Part::Path(read_path(path, t, (filtered, splat), first_unit == 0, end_unit - first_unit)?),
             _ => Part::Whitted(read_whitted(path, t, region.height, raw)?),
         };
         let settings = fields
@@ -308,10 +312,14 @@ fn path_channels(s: &PathSums) -> Vec<(String, TableData)> {
             names.extend((0..4).map(|w| format!("sum.{name}.{ch}.w{w}")));
         }
     }
-    if !s.filtered {
+    let squares = !s.filtered && !s.splat;
+    if squares {
         for ch in RGB {
             names.extend((0..6).map(|w| format!("sum.Square.{ch}.w{w}")));
         }
+    }
+    if s.splat {
+        names.extend((0..4).map(|w| format!("sum.weight.w{w}")));
     }
     names.extend(["count.samples".to_string(), "count.covered".to_string()]);
     let mut planes: Vec<Vec<u32>> = names.iter().map(|_| Vec::with_capacity(s.pixels.len())).collect();
@@ -324,8 +332,11 @@ fn path_channels(s: &PathSums) -> Vec<(String, TableData)> {
         for q in 0..QUANTITIES.len() {
             sum_of(p, q).iter().flat_map(|&v| fixed::words_i128(v)).for_each(&mut push);
         }
-        if !s.filtered {
+        if squares {
             p.square.iter().flat_map(|sq| sq.words()).for_each(&mut push);
+        }
+        if s.splat {
+            fixed::words_i128(p.weight).into_iter().for_each(&mut push);
         }
         push(p.samples);
         push(p.covered);
@@ -351,8 +362,15 @@ fn whitted_channels(w: &WhittedPart) -> Vec<(String, TableData)> {
     WHITTED.iter().zip(planes).map(|(name, plane)| ((*name).to_string(), TableData::F32(plane))).collect()
 }
 
-/// The path part of table `t` (its size checked against the header).
-fn read_path(path: &Path, t: &ExrTable, filtered: bool, first: bool, units: u64) -> Result<PathSums, ChunkError> {
+/// The path part of table `t` (its size checked against the header), `filtered` and `splat`
+/// as the header says.
+fn read_path(
+    path: &Path,
+    t: &ExrTable,
+    (filtered, splat): (bool, bool),
+    first: bool,
+    units: u64,
+) -> Result<PathSums, ChunkError> {
     let n = t.width as usize * t.height as usize;
     let u32s = |name: &str| match t.channel(name) {
         Some(TableData::U32(v)) if v.len() == n => Ok(v.as_slice()),
@@ -368,12 +386,18 @@ fn read_path(path: &Path, t: &ExrTable, filtered: bool, first: bool, units: u64)
             }
         }
     }
-    if !filtered {
+    if !filtered && !splat {
         for (c, ch) in RGB.iter().enumerate() {
             let w: Vec<&[u32]> = (0..6).map(|w| u32s(&format!("sum.Square.{ch}.w{w}"))).collect::<Result<_, _>>()?;
             for (i, p) in pixels.iter_mut().enumerate() {
                 p.square[c] = Square::from_words([w[0][i], w[1][i], w[2][i], w[3][i], w[4][i], w[5][i]]);
             }
+        }
+    }
+    if splat {
+        let w: Vec<&[u32]> = (0..4).map(|w| u32s(&format!("sum.weight.w{w}"))).collect::<Result<_, _>>()?;
+        for (i, p) in pixels.iter_mut().enumerate() {
+            p.weight = fixed::from_words_i128([w[0][i], w[1][i], w[2][i], w[3][i]]);
         }
     }
     for (i, (s, c)) in u32s("count.samples")?.iter().zip(u32s("count.covered")?).enumerate() {
@@ -394,7 +418,7 @@ fn read_path(path: &Path, t: &ExrTable, filtered: bool, first: bool, units: u64)
     } else {
         None
     };
-    Ok(PathSums { width: t.width, height: t.height, filtered, units, pixels, first })
+    Ok(PathSums { width: t.width, height: t.height, filtered, splat, units, pixels, first })
 }
 
 /// The Whitted part of table `t` (of records `height` rows each).
@@ -473,6 +497,7 @@ pub fn merge(chunks: impl IntoIterator<Item = Result<(PathBuf, Chunk), ChunkErro
     };
     let kind = |c: &Chunk| match &c.part {
         Part::Path(s) if s.filtered => "filtered path",
+        Part::Path(s) if s.splat => "splatted path",
         Part::Path(_) => "path",
         Part::Whitted(_) => "whitted",
     };
@@ -505,8 +530,15 @@ pub fn merge(chunks: impl IntoIterator<Item = Result<(PathBuf, Chunk), ChunkErro
     let settings = first.settings.clone();
     // The first chunk is checked (against itself) and taken in like the others: its header is
     // kept (with an empty part) to check the others against.
-    let placeholder =
-        Part::Path(PathSums { width: 0, height: 0, filtered: false, units: 0, pixels: Vec::new(), first: None });
+    let placeholder = Part::Path(PathSums {
+        width: 0,
+        height: 0,
+        filtered: false,
+        splat: false,
+        units: 0,
+        pixels: Vec::new(),
+        first: None,
+    });
     let first_part = std::mem::replace(&mut first.part, placeholder);
     let header = first;
     let mut next = Some((first_path.clone(), Chunk { part: first_part, ..header.clone() }));
@@ -653,6 +685,7 @@ fn take_in(sum: &mut Sum, path: &Path, c: Chunk, whole: Region) -> Result<(), Ch
                             width: whole.width,
                             height: whole.height,
                             filtered: sums.filtered,
+                            splat: sums.splat,
                             units: sums.units,
                             pixels: frame_buffer(path, whole, PixelSums::default())?,
                             first: Some(frame_buffer(path, whole, FirstSample::default())?),
@@ -703,7 +736,7 @@ mod tests {
             p.covered = index;
         }
         let first = (a == 0).then(|| vec![FirstSample { depth: 2.5, ..FirstSample::default() }; width as usize * 2]);
-        let sums = PathSums { width, height: 2, filtered: false, units: b - a, pixels, first };
+        let sums = PathSums { width, height: 2, filtered: false, splat: false, units: b - a, pixels, first };
         let c = Chunk {
             hash: "ab".repeat(16),
             version: "0.1.0".into(),
@@ -726,6 +759,17 @@ mod tests {
         for (index, count) in [(0, 1), (0, 3), (2, 3)] {
             let (path, c) = chunk(index, count, 3);
             assert_eq!(Chunk::from_table(&path, &c.to_table()).expect("read back"), c);
+            // Splatted: the weights travel, the squares (not kept) do not.
+            let (path, mut c) = chunk(index, count, 3);
+            let Part::Path(sums) = &mut c.part else { unreachable!() };
+            sums.splat = true;
+            for (i, p) in sums.pixels.iter_mut().enumerate() {
+                p.square = Default::default();
+                p.weight = fixed::quantise(0.75 + i as f32) + (1 << 100);
+            }
+            let table = c.to_table();
+            assert!(table.channels.iter().all(|(name, _)| !name.starts_with("sum.Square")));
+            assert_eq!(Chunk::from_table(&path, &table).expect("read back"), c);
         }
     }
 
@@ -748,7 +792,9 @@ mod tests {
             ("glint.chunk=0/3", "glint.chunk=3/3", "glint.chunk"),
             ("glint.units=0..2/6", "glint.units=2..2/6", "glint.units"),
             ("glint.filtered=false", "glint.filtered=maybe", "glint.filtered"),
-            ("glint.format=glint-chunk 2", "glint.format=glint-chunk 1", "format"),
+            ("glint.splat=false", "glint.splat=1", "glint.splat"),
+            ("glint.splat=false\n", "", "no glint.splat"),
+            ("glint.format=glint-chunk 3", "glint.format=glint-chunk 2", "format"),
         ] {
             let mut t = table.clone();
             t.attributes[0].1 = t.attributes[0].1.replace(from, to);
@@ -864,6 +910,11 @@ mod tests {
         let mut gap = all.clone();
         gap[1].1.first_unit = 3;
         refused(gap, "holds units 3..4, expected 2..4");
+        let mut splatted = all.clone();
+        if let Part::Path(sums) = &mut splatted[1].1.part {
+            sums.splat = true;
+        }
+        refused(splatted, "kind of frame path vs splatted path");
         refused(Vec::new(), "no chunk files");
         refused(all[..2].to_vec(), "chunk 2 of 3 missing");
     }

@@ -72,6 +72,18 @@ pub fn mean(sum: &[i128; 3], n: u64) -> Rgb {
     Rgb::new((value(sum[0]) / n) as f32, (value(sum[1]) / n) as f32, (value(sum[2]) / n) as f32)
 }
 
+/// The weighted mean `sum / weight` of a splatted pixel ([`crate::path::PathSums::splat`]),
+/// rounded once to f32; 0 where nothing reached the pixel (`weight` ≤ 0).
+#[inline]
+#[must_use]
+pub fn ratio(sum: &[i128; 3], weight: i128) -> Rgb {
+    if weight <= 0 {
+        return Rgb::ZERO;
+    }
+    let w = value(weight);
+    Rgb::new((value(sum[0]) / w) as f32, (value(sum[1]) / w) as f32, (value(sum[2]) / w) as f32)
+}
+
 /// A sum of squares: `trunc(v² · 2^64)` per term, in 192 bits (`hi · 2^128 + lo`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Square {

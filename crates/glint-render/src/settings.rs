@@ -103,6 +103,25 @@ impl ImageSettings {
             ..*self
         }
     }
+    /// This image grown by `margin` pixels on every side, as far as its film goes, and where
+    /// this image lies in it. The grown image is a window of the same film (its pixels are
+    /// the film's own); the film itself (no window) once it covers it.
+    #[must_use]
+    pub fn grown(&self, margin: u32) -> (ImageSettings, Region) {
+        let (fx, fy) = self.film_origin();
+        let (fx, fy) = (fx as u32, fy as u32);
+        let (full_width, full_height) =
+            self.window.map_or((self.width, self.height), |w| (w.full_width, w.full_height));
+        let (x0, y0) = (fx.saturating_sub(margin), fy.saturating_sub(margin));
+        let x1 = (fx + self.width).saturating_add(margin).min(full_width);
+        let y1 = (fy + self.height).saturating_add(margin).min(full_height);
+        let (width, height) = (x1 - x0, y1 - y0);
+        let window =
+            ((width, height) != (full_width, full_height)).then_some(Window { full_width, full_height, x0, y0 });
+        let inner = Region { x0: fx - x0, y0: fy - y0, width: self.width, height: self.height };
+        (ImageSettings { width, height, window, ..*self }, inner)
+    }
+
     /// The whole film's camera rays: image pixel (x, y) is traced at film position
     /// [`ImageSettings::film_origin`] + (x, y) (integers added first, so a crop's rays are the
     /// film's bit for bit).

@@ -217,6 +217,7 @@ fn path_settings(args: &RenderArgs, path: PathSettings, width: u32, scene: &Scen
         // --max-bounces asks for glint's budgets over a Mitsuba scene's max_depth.
         max_depth: if p.max_bounces.is_some() { None } else { path.max_depth },
         sampler: p.sampler.map_or(path.sampler, Into::into),
+        reconstruction: p.reconstruction.into(),
         ..path
     })
 }

@@ -24,6 +24,7 @@ mod lookup;
 pub mod models;
 mod progressive;
 mod shading;
+mod splat;
 mod sums;
 mod wavefront;
 
@@ -35,7 +36,7 @@ use crate::stats::{BandStats, FrameStats};
 use crate::world::SurfaceHit;
 use crate::{RenderError, World};
 use glint_core::random::{SampleStream, Sampler};
-use glint_core::{PixelFilter, PixelSampler, Ray, Rgb, Vec2, Vec3};
+use glint_core::{PixelFilter, PixelSampler, Ray, Reconstruction, Rgb, Vec2, Vec3};
 use glint_filter::Filter;
 use glint_scene::{Camera, limits};
 use integrator::{CameraSample, IndirectMode, Integrator, PathParams};
@@ -86,9 +87,15 @@ pub struct PathSettings {
     /// the same light transport. `None`: glint's own budgets (`max_bounces` after the guide
     /// vertex, `max_chain` before it). Both kernels keep either budget.
     pub max_depth: Option<u32>,
-    /// The film's pixel filter: each sample's position is drawn from it (box: uniform in the
-    /// pixel). The first guide ray of a filtered frame still goes through the pixel centre.
+    /// The film's pixel filter. Without an image filter, a filter wider than a pixel is
+    /// applied as `reconstruction` says; with one, each sample's position is drawn from it
+    /// (the guided filter reads one sample per pixel), and the first guide ray still goes
+    /// through the pixel centre. The box: positions uniform in the pixel.
     pub pixel_filter: PixelFilter,
+    /// How an unfiltered frame applies a pixel filter wider than a pixel: splatting each
+    /// sample into every pixel it reaches (Mitsuba's film, the default) or drawing its
+    /// position from the filter (`glint_core::pixel_filter`).
+    pub reconstruction: Reconstruction,
     /// Emitters and the sky seen directly from the camera add nothing (Mitsuba's
     /// `hide_emitters`); after a bounce, mirror and glass ones included, they are seen.
     pub hide_emitters: bool,
@@ -136,6 +143,7 @@ impl Default for PathSettings {
             kernel: PathKernel::default(),
             max_depth: None,
             pixel_filter: PixelFilter::Box,
+            reconstruction: Reconstruction::Splat,
             hide_emitters: false,
             sampler: Sampler::Sobol,
         }
@@ -166,6 +174,17 @@ impl PathSettings {
             )));
         }
         self.pixel_filter.validate().map_err(RenderError::InvalidSetting)?;
+        let samples = u64::from(self.passes) * u64::from(self.spp);
+        if samples * self.splat_footprint() > fixed::MAX_TERMS {
+            return Err(RenderError::InvalidSetting(format!(
+                "{samples} samples per pixel splatted through a pixel filter of radius {} (each sample adds \
+                 to up to {} pixels): at most {} samples per pixel (or draw positions from the filter: \
+                 --reconstruction sample)",
+                self.pixel_filter.radius(),
+                self.splat_footprint(),
+                fixed::MAX_TERMS / self.splat_footprint()
+            )));
+        }
         if let Some(t) = self.time_budget
             && t.is_zero()
         {
@@ -176,6 +195,23 @@ impl PathSettings {
 
     fn filtered(&self) -> bool {
         !matches!(self.filter, Filter::None)
+    }
+
+    /// How many pixels on either side a sample's splat reaches: the pixel filter's reach when
+    /// samples are splatted (an unfiltered frame, [`Reconstruction::Splat`]), else 0 (each
+    /// sample stays in its pixel).
+    #[must_use]
+    pub fn splat_reach(&self) -> usize {
+        match (self.filtered(), self.reconstruction) {
+            (false, Reconstruction::Splat) => self.pixel_filter.reach(),
+            _ => 0,
+        }
+    }
+
+    /// The most pixels one sample adds to (1 when samples are not splatted).
+    fn splat_footprint(&self) -> u64 {
+        let side = 2 * self.splat_reach() as u64 + 1;
+        side * side
     }
 
     /// The frame's units of work, the steps a [`Share`] splits: its passes with a filter (one
@@ -251,8 +287,11 @@ struct Frame {
     centre_cone: f32,
     forward: Vec3,
     width: usize,
-    /// Draws sample positions from the film's pixel filter.
+    /// Draws sample positions from the film's pixel filter (uniform in the pixel when samples
+    /// are splatted).
     pixel: PixelSampler,
+    /// The pixel filter samples are splatted through ([`PathSettings::splat_reach`] > 0).
+    splat: Option<PixelFilter>,
     sampler: Sampler,
     /// The image's place in its film (pixel ids and camera positions are the film's).
     image: ImageSettings,
@@ -284,7 +323,8 @@ impl Frame {
             centre_cone: 1.0 / (camera.focal_pixels * (path.spp as f32).sqrt()),
             forward: view.forward.normalize(),
             width: image.width as usize,
-            pixel: PixelSampler::new(path.pixel_filter),
+            pixel: PixelSampler::new(if path.splat_reach() > 0 { PixelFilter::Box } else { path.pixel_filter }),
+            splat: (path.splat_reach() > 0).then_some(path.pixel_filter),
             sampler: path.sampler,
             image: *image,
             centre_first: path.filtered() || path.pixel_filter == PixelFilter::Box,
@@ -292,7 +332,9 @@ impl Frame {
     }
 
     /// Trace sample `sample` of pixel (x, y); sample 0 of a pass with a guide (or the very
-    /// first sample) goes through the centre.
+    /// first sample) goes through the centre. Returns the sample's offset from the pixel's
+    /// corner (the centre at ½; in [0, 1)² unless drawn from a filter wider than the pixel)
+    /// and the sample.
     fn sample(
         &self,
         it: &mut Integrator,
@@ -302,13 +344,13 @@ impl Frame {
         centre: bool,
         mode: IndirectMode,
     ) -> (Vec2, CameraSample) {
-        let (pos, ray, mut stream) = self.camera_ray(x, y, sample, centre);
+        let (offset, ray, mut stream) = self.camera_ray(x, y, sample, centre);
         let first = it.world.intersect(&ray);
-        (pos, self.sample_from(it, ray, first, &mut stream, mode))
+        (offset, self.sample_from(it, ray, first, &mut stream, mode))
     }
 
-    /// The image position and camera ray of sample `sample` of pixel (x, y), and the sample's
-    /// stream after the jitter (see [`Frame::sample`]).
+    /// The offset within the pixel and camera ray of sample `sample` of pixel (x, y), and the
+    /// sample's stream after the jitter (see [`Frame::sample`]).
     #[inline]
     fn camera_ray(&self, x: usize, y: usize, sample: u64, centre: bool) -> (Vec2, Ray, SampleStream) {
         let mut stream = self.sampler.stream(self.image.pixel_id(x, y), sample, self.seed);
@@ -316,9 +358,8 @@ impl Frame {
         // same dimensions for the same purpose (stratified across the pixel's samples).
         let jitter = stream.next_2d();
         let offset = if centre && self.centre_first { Vec2::splat(0.5) } else { self.pixel.position(jitter) };
-        let pos = Vec2::new(x as f32, y as f32) + offset;
         let on_film = match self.image.film_origin() {
-            (0, 0) => pos,
+            (0, 0) => Vec2::new(x as f32, y as f32) + offset,
             (fx, fy) => Vec2::new((fx + x) as f32, (fy + y) as f32) + offset,
         };
         let ray = if self.camera.samples_lens() {
@@ -326,7 +367,7 @@ impl Frame {
         } else {
             self.camera.ray(on_film)
         };
-        (pos, ray, stream)
+        (offset, ray, stream)
     }
 
     /// The rest of [`Frame::sample`] given the camera ray's closest hit `first`.
@@ -377,8 +418,8 @@ impl<'a> Tracer<'a> {
     }
 
     /// Trace samples `0..count` of each of `pixels` pixels (`request(k, s)` says which) and
-    /// hand each to `take(k, s, image position, sample)`, pixel by pixel, each pixel's samples
-    /// in order (so sums come out in the same order whatever the kernel).
+    /// hand each to `take(k, s, offset in the pixel, sample)`, pixel by pixel, each pixel's
+    /// samples in order (so sums come out in the same order whatever the kernel).
     fn samples(
         &mut self,
         pixels: usize,
@@ -394,8 +435,8 @@ impl<'a> Tracer<'a> {
                 for k in 0..pixels {
                     for s in 0..count {
                         let r = request(k, s);
-                        let (pos, cs) = frame.sample(it, r.x, r.y, r.index, r.centre, r.mode);
-                        take(k, s, pos, &cs);
+                        let (offset, cs) = frame.sample(it, r.x, r.y, r.index, r.centre, r.mode);
+                        take(k, s, offset, &cs);
                     }
                 }
             }
@@ -411,8 +452,8 @@ impl<'a> Tracer<'a> {
                     let mut i = 0;
                     for k in first..last {
                         for s in 0..count {
-                            let (pos, cs) = &out[i];
-                            take(k, s, *pos, cs);
+                            let (offset, cs) = &out[i];
+                            take(k, s, *offset, cs);
                             i += 1;
                         }
                     }
@@ -486,6 +527,32 @@ pub fn render_path_sums(
         Some(r) => r,
         None => Region::whole(image.width, image.height),
     };
+    // Splatted, a pixel holds its neighbours' samples too: a window of the film is traced
+    // with the splats' reach around it (as far as the film goes) and cut out, so that its
+    // pixels are the whole film's bit for bit. Its progress is reported in its own rows.
+    let reach = path.splat_reach() as u32;
+    let (grown, inner) = image.grown(reach);
+    if grown != *image {
+        let (traced, shown) = (u64::from(grown.height), u64::from(image.height));
+        let whole = Region::whole(grown.width, grown.height);
+        let (stats, sums) =
+            hooks.scaled(shown, traced, |hooks| trace_sums(world, camera, &grown, path, share, whole, hooks))?;
+        return Ok((stats, sums.crop(inner)));
+    }
+    trace_sums(world, camera, image, path, share, region, hooks)
+}
+
+/// [`render_path_sums`] of `region` of `image` (checked).
+fn trace_sums(
+    world: &World,
+    camera: &Camera,
+    image: &ImageSettings,
+    path: &PathSettings,
+    share: Share,
+    region: Region,
+    hooks: &Hooks,
+) -> Result<(FrameStats, PathSums), RenderError> {
+    let filtered = path.filtered();
     let tiled = region != Region::whole(image.width, image.height);
     // The sums and guide buffers: the last frame's memory when it fits, cleared in the frame;
     // else made and first touched on every thread before the frame's clock starts, and
@@ -567,7 +634,7 @@ pub fn render_path_sums(
         }
         // Only a whole frame has a time budget (Share::validate), and its passes stop where a
         // pixel's sums could overflow.
-        let room = (unit / per_pass + 1) * spp <= fixed::MAX_TERMS;
+        let room = (unit / per_pass + 1) * spp * path.splat_footprint() <= fixed::MAX_TERMS;
         match path.time_budget {
             Some(budget) if start.elapsed() + pass_time <= budget && room => {}
             _ => break,
@@ -597,6 +664,7 @@ pub fn render_path_sums(
         width: region.width,
         height: region.height,
         filtered,
+        splat: frame.splat.is_some(),
         units: unit - units.start,
         pixels: acc,
         first,
@@ -642,7 +710,10 @@ fn trace_guides(
     stats: &mut FrameStats,
 ) -> Result<(Vec<GuidePixel>, f32), RenderError> {
     let w = frame.width;
-    let band_len = w * BAND_ROWS;
+    let reach = frame.splat.map_or(0, |f| f.reach());
+    // Splatted bands are taller: a band's halo is `reach` rows above and below it.
+    let band_rows = if reach > 0 { splat::band_rows(reach, BAND_ROWS) } else { BAND_ROWS };
+    let band_len = w * band_rows;
     let n = frame.image.pixels();
     let what = || format!("the guide rays of a {} x {} image", frame.width, frame.image.height);
     let mut guides = GUIDES.take(n, GuidePixel::default(), what)?;
@@ -665,10 +736,17 @@ fn trace_guides(
         }
     };
     let filtered = path.filtered();
+    let halos = std::sync::Mutex::new(Vec::new());
     let totals = bands::run(parts, frame.schedule, hooks, |band, (gs, accs, inputs, far)| {
         if sums.stale {
             accs.fill(PixelSums::default());
         }
+        let height = frame.image.height as usize;
+        // Splatted, the band's sums are the splats' (with their halo).
+        let (mut splats, accs) = match frame.splat {
+            Some(f) => (Some(splat::BandSplats::new(f, w, height, band * band_rows, accs)), &mut [][..]),
+            None => (None, accs),
+        };
         let mut tracer = Tracer::new(world, frame, path.kernel);
         let (mut rejected, mut clamped) = (0, 0);
         // The guide ray of the first pass goes through the pixel centre (the guide and the
@@ -676,15 +754,17 @@ fn trace_guides(
         // centre on a crack does not stay dark for the whole budget.
         let request = |k: usize, s: u64| Request {
             x: k % w,
-            y: band * BAND_ROWS + k / w,
+            y: band * band_rows + k / w,
             index: base + s,
             centre: base + s == 0,
             mode: IndirectMode::Trace,
         };
-        tracer.samples(gs.len(), count, request, |k, s, _, cs| {
+        tracer.samples(gs.len(), count, request, |k, s, offset, cs| {
             let Some(cs) = cs.admitted(&mut rejected, &mut clamped) else {
-                if !filtered {
-                    accs[k].samples += 1;
+                match splats.as_mut() {
+                    Some(splats) => splats.own(k).samples += 1,
+                    None if !filtered => accs[k].samples += 1,
+                    None => {}
                 }
                 return;
             };
@@ -692,7 +772,9 @@ fn trace_guides(
             if s == 0 {
                 gs[k].sample = *cs;
             }
-            if !filtered {
+            if let Some(splats) = splats.as_mut() {
+                splats.add(k, offset, cs);
+            } else if !filtered {
                 let a = &mut accs[k];
                 a.add_moments(cs.rest + cs.albedo * cs.indirect);
                 fixed::add_rgb(&mut a.direct, cs.direct);
@@ -707,9 +789,16 @@ fn trace_guides(
                 *far = far.max(inputs.put(k, g.sample.indirect, g.sample.guide, depth_scale));
             }
         }
+        if let (Some(splats), Ok(mut halos)) = (splats, halos.lock()) {
+            halos.push(splats.into_halo());
+        }
         hooks.report((gs.len() / w) as u64);
         BandStats { rays: tracer.counts(), rejected, clamped }
     })?;
+    if reach > 0 {
+        let halos = halos.into_inner().map_err(|_| RenderError::InvalidSetting("a band's splats were lost".into()))?;
+        splat::add_halos(sums.acc, w, reach, &halos);
+    }
     stats.rays.add(&totals.rays);
     stats.rejected_samples += totals.rejected;
     stats.clamped_samples += totals.clamped;
@@ -801,10 +890,12 @@ fn trace_lookups(
             centre: false,
             mode: IndirectMode::Lookup,
         };
-        tracer.samples(accs.len(), further, request, |k, _, pos, cs| {
+        tracer.samples(accs.len(), further, request, |k, _, offset, cs| {
             let a = &mut accs[k];
             a.samples += 1;
             let Some(cs) = cs.admitted(&mut rejected, &mut clamped) else { return };
+            // The image position, formed as the camera ray's was.
+            let pos = Vec2::new((rx + k % rw) as f32, (y0 + k / rw) as f32) + offset;
             let indirect = match cs.guide {
                 Some(q) => map.choose(pos, q.normal, q.depth).map_or(Rgb::ZERO, |j| filtered.filtered(j)),
                 None => Rgb::ZERO,

@@ -11,7 +11,10 @@ use crate::fixed::{self, Square};
 use glint_core::{Rgb, Vec3};
 use rayon::prelude::*;
 
-/// One pixel's sums over the samples of the passes it holds.
+/// One pixel's sums over the samples of the passes it holds. When samples are splatted
+/// ([`PathSums::splat`]) the colour, direct and indirect sums are of the samples that reach
+/// the pixel, each weighted by the pixel filter, and `weight` sums those weights; the counts
+/// are of the pixel's own samples, and the squares are not kept.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PixelSums {
     pub colour: [i128; 3],
@@ -23,6 +26,8 @@ pub struct PixelSums {
     pub square: [Square; 3],
     pub covered: u32,
     pub samples: u32,
+    /// Splatted: the sum of the filter weights of the samples that reach the pixel.
+    pub weight: i128,
 }
 
 impl PixelSums {
@@ -35,7 +40,7 @@ impl PixelSums {
         }
     }
 
-    fn add(&mut self, o: &PixelSums) {
+    pub(super) fn add(&mut self, o: &PixelSums) {
         for k in 0..3 {
             self.colour[k] += o.colour[k];
             self.direct[k] += o.direct[k];
@@ -44,6 +49,17 @@ impl PixelSums {
         }
         self.covered += o.covered;
         self.samples += o.samples;
+        self.weight += o.weight;
+    }
+
+    /// Add a splat of weight `w` > 0: the sample's colour, direct and indirect light scaled
+    /// by it, and the weight.
+    #[inline]
+    pub(crate) fn add_splat(&mut self, w: f32, colour: Rgb, direct: Rgb, indirect: Rgb) {
+        fixed::add_rgb(&mut self.colour, colour * w);
+        fixed::add_rgb(&mut self.direct, direct * w);
+        fixed::add_rgb(&mut self.indirect, indirect * w);
+        self.weight += fixed::quantise(w);
     }
 
     /// The sample variance of one sample's colour (Bessel-corrected; 0 below two samples).
@@ -82,6 +98,9 @@ pub struct PathSums {
     pub height: u32,
     /// A filter ran (the indirect sums are per pass, no squares).
     pub filtered: bool,
+    /// Samples were splatted through the pixel filter: a pixel is its weighted sums over its
+    /// weight ([`PixelSums`]).
+    pub splat: bool,
     /// Passes (filtered) or samples (unfiltered) these sums hold: the frame's units of work.
     pub units: u64,
     pub pixels: Vec<PixelSums>,
@@ -97,10 +116,19 @@ impl PathSums {
     /// [`RenderError::InvalidSetting`] when the two are of different frames' shapes or both
     /// hold the first unit.
     pub fn add(&mut self, other: &PathSums) -> Result<(), RenderError> {
-        if (self.width, self.height, self.filtered) != (other.width, other.height, other.filtered) {
+        let shape = |s: &PathSums| (s.width, s.height, s.filtered, s.splat);
+        if shape(self) != shape(other) {
             return Err(RenderError::InvalidSetting(format!(
-                "cannot add the sums of a {}x{} frame (filtered: {}) to a {}x{} one (filtered: {})",
-                other.width, other.height, other.filtered, self.width, self.height, self.filtered
+                "cannot add the sums of a {}x{} frame (filtered: {}, splatted: {}) to a {}x{} one (filtered: {}, \
+                 splatted: {})",
+                other.width,
+                other.height,
+                other.filtered,
+                other.splat,
+                self.width,
+                self.height,
+                self.filtered,
+                self.splat
             )));
         }
         if self.first.is_some() && other.first.is_some() {
@@ -123,7 +151,8 @@ impl PathSums {
     /// [`RenderError::Memory`] when the film cannot be allocated.
     pub fn resolve(&self, film: &mut Film) -> Result<(), RenderError> {
         film.reset(self.width, self.height)?;
-        film.variance = !self.filtered;
+        // A splatted pixel's samples are its neighbours' too: no per-sample variance.
+        film.variance = !self.filtered && !self.splat;
         let none = FirstSample::default();
         let (FilmRows { pixels, surface }, path) = film.path_aovs_mut()?;
         // Independent pixels, on every thread (a 1024 × 768 frame's nine 128-bit means per pixel
@@ -132,8 +161,15 @@ impl PathSums {
         records.zip(&self.pixels).enumerate().with_min_len(1024).for_each(|(i, (((p, t), q), a))| {
             let n = u64::from(a.samples);
             let first = self.first.as_ref().map_or(&none, |f| &f[i]);
-            *p = FilmPixel { colour: fixed::mean(&a.colour, n), coverage: a.covered as f32 / n.max(1) as f32 };
+            let coverage = a.covered as f32 / n.max(1) as f32;
             *t = SurfacePixel { normal: first.normal, albedo: first.albedo, depth: first.depth };
+            if self.splat {
+                *p = FilmPixel { colour: fixed::ratio(&a.colour, a.weight), coverage };
+                let (direct, indirect) = (fixed::ratio(&a.direct, a.weight), fixed::ratio(&a.indirect, a.weight));
+                *q = PathAovs { direct, indirect, samples: a.samples as f32, variance: Rgb::ZERO };
+                return;
+            }
+            *p = FilmPixel { colour: fixed::mean(&a.colour, n), coverage };
             *q = PathAovs {
                 direct: fixed::mean(&a.direct, n),
                 indirect: fixed::mean(&a.indirect, if self.filtered { self.units } else { n }),
@@ -142,6 +178,26 @@ impl PathSums {
             };
         });
         Ok(())
+    }
+
+    /// The sums of `region`'s pixels (inside these sums' image), this frame's memory given
+    /// back to [`POOL`].
+    #[must_use]
+    pub(crate) fn crop(self, region: crate::settings::Region) -> PathSums {
+        if region == crate::settings::Region::whole(self.width, self.height) {
+            return self;
+        }
+        let rows = |w: usize| {
+            (region.y0 as usize..(region.y0 + region.height) as usize)
+                .map(move |y| y * w + region.x0 as usize..y * w + (region.x0 + region.width) as usize)
+        };
+        let width = self.width as usize;
+        let (filtered, splat, units) = (self.filtered, self.splat, self.units);
+        let first = self.first.as_deref().map(|f| rows(width).flat_map(|r| f[r].iter().copied()).collect());
+        let pixels = rows(width).flat_map(|r| self.pixels[r].iter().copied()).collect();
+        let cropped = PathSums { width: region.width, height: region.height, filtered, splat, units, pixels, first };
+        self.recycle();
+        cropped
     }
 
     /// Give the pixels' memory back for the next frame's sums ([`POOL`]).

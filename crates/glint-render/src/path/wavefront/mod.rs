@@ -195,17 +195,17 @@ impl<'a> Wavefront<'a> {
         Self { world, frame, counts: RayCounts::default(), q, batch, suns: suns.unwrap_or_default() }
     }
 
-    /// Trace the camera samples `requests`; `out[i]` is request `i`'s image position and
-    /// sample.
+    /// Trace the camera samples `requests`; `out[i]` is request `i`'s offset in its pixel
+    /// ([`super::Frame::sample`]) and sample.
     pub(super) fn run(&mut self, requests: &[Request], out: &mut Vec<(Vec2, CameraSample)>) {
         out.clear();
         self.q.paths.clear();
         self.q.tails.clear();
         for (slot, r) in requests.iter().enumerate() {
-            let (pos, ray, stream) = self.frame.camera_ray(r.x, r.y, r.index, r.centre);
+            let (offset, ray, stream) = self.frame.camera_ray(r.x, r.y, r.index, r.centre);
             let cos = ray.dir.dot(self.frame.forward);
             let cone = self.frame.centre_cone * cos * cos.sqrt();
-            out.push((pos, CameraSample::default()));
+            out.push((offset, CameraSample::default()));
             let leg = CameraLeg { chain: 0, throughput: Rgb::ONE, depth: 0.0, cone, mode: r.mode };
             self.q.paths.push(Path { slot: slot as u32, ray, stream, leg: Leg::Camera(leg) });
         }
