@@ -75,8 +75,22 @@ impl PixelFilter {
     #[inline]
     pub fn splat_weights(&self, o: f32, out: &mut [f32; 2 * MAX_REACH + 1]) {
         let reach = self.reach();
-        for (j, w) in out.iter_mut().enumerate().take(2 * reach + 1) {
-            *w = self.eval((j as f32 - reach as f32) + (0.5 - o));
+        let at = |j: usize| (j as f32 - reach as f32) + (0.5 - o);
+        match *self {
+            // `eval`'s terms, the constant one (its value at the radius) taken once.
+            PixelFilter::Gaussian { stddev } => {
+                let (r, alpha) = (self.radius(), -1.0 / (2.0 * stddev * stddev));
+                let floor = (alpha * r * r).exp();
+                for (j, w) in out.iter_mut().enumerate().take(2 * reach + 1) {
+                    let x = at(j);
+                    *w = if x.abs() >= r { 0.0 } else { ((alpha * x * x).exp() - floor).max(0.0) };
+                }
+            }
+            _ => {
+                for (j, w) in out.iter_mut().enumerate().take(2 * reach + 1) {
+                    *w = self.eval(at(j));
+                }
+            }
         }
     }
 

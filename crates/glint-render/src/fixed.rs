@@ -37,9 +37,29 @@ const FAST_LIMIT: f64 = 9.0e18;
 #[inline]
 #[must_use]
 pub fn quantise(v: f32) -> i128 {
-    let x = f64::from(v) * SCALE;
+    on_grid(scaled(v))
+}
+
+/// `v` on the grid's scale, `v · 2^56` in f64: exact (a power of two), and exact again when
+/// multiplied by another f32 (24 + 24 mantissa bits fit f64's 53), so a weighted term
+/// `on_grid(scaled(v) * f64::from(w))` is `trunc(v · w · 2^56)` exactly.
+#[inline]
+#[must_use]
+pub fn scaled(v: f32) -> f64 {
+    f64::from(v) * SCALE
+}
+
+/// A value already on the grid's scale (see [`scaled`]) as a term: truncated; NaN gives 0,
+/// beyond ±2^106 saturates.
+#[inline]
+#[must_use]
+pub fn on_grid(x: f64) -> i128 {
     if x.abs() < FAST_LIMIT { x as i64 as i128 } else { x.clamp(-TERM_LIMIT, TERM_LIMIT) as i128 }
 }
+
+/// The largest magnitude of a value whose [`scaled`] form, times a weight in [0, 1], fits the
+/// fast conversion (`on_grid` without its range check): 2^63 / 2^56 = 128, less a margin.
+pub const SMALL: f32 = 120.0;
 
 /// Add an RGB value to a sum.
 #[inline]

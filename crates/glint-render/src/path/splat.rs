@@ -12,7 +12,7 @@
 //! neither thread count, band size nor a tile's place in the frame changes a pixel.
 
 use super::integrator::CameraSample;
-use super::sums::PixelSums;
+use super::sums::{PixelSums, SplatTerms};
 use glint_core::pixel_filter::MAX_REACH;
 use glint_core::{PixelFilter, Vec2};
 
@@ -63,7 +63,7 @@ impl<'a> BandSplats<'a> {
     /// filter reaches, weighted; the pixel's own counts.
     pub(super) fn add(&mut self, k: usize, offset: Vec2, cs: &CameraSample) {
         let (x, y) = (k % self.width, self.y0 + k / self.width);
-        let colour = cs.rest + cs.albedo * cs.indirect;
+        let terms = SplatTerms::new(cs.rest + cs.albedo * cs.indirect, cs.direct, cs.indirect);
         let (mut wx, mut wy) = ([0.0f32; 2 * MAX_REACH + 1], [0.0f32; 2 * MAX_REACH + 1]);
         self.filter.splat_weights(offset.x, &mut wx);
         self.filter.splat_weights(offset.y, &mut wy);
@@ -86,7 +86,7 @@ impl<'a> BandSplats<'a> {
             for (p, &w_col) in row[first..=last].iter_mut().zip(wx) {
                 let w = w_col * w_row;
                 if w > 0.0 {
-                    p.add_splat(w, colour, cs.direct, cs.indirect);
+                    p.add_splat(w, &terms);
                 }
             }
         }

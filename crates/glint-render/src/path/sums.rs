@@ -52,14 +52,27 @@ impl PixelSums {
         self.weight += o.weight;
     }
 
-    /// Add a splat of weight `w` > 0: the sample's colour, direct and indirect light scaled
-    /// by it, and the weight.
+    /// Add a splat of weight `w` in (0, 1]: the sample's colour, direct and indirect light
+    /// weighted by it (each term `trunc(v · w · 2^56)` exactly), and the weight.
     #[inline]
-    pub(crate) fn add_splat(&mut self, w: f32, colour: Rgb, direct: Rgb, indirect: Rgb) {
-        fixed::add_rgb(&mut self.colour, colour * w);
-        fixed::add_rgb(&mut self.direct, direct * w);
-        fixed::add_rgb(&mut self.indirect, indirect * w);
-        self.weight += fixed::quantise(w);
+    pub(crate) fn add_splat(&mut self, w: f32, terms: &SplatTerms) {
+        let w64 = f64::from(w);
+        let sums = [&mut self.colour, &mut self.direct, &mut self.indirect];
+        if terms.small {
+            // Every |term| < 120 · 2^56 < 2^63: the machine's conversion, no range checks.
+            for (sum, v) in sums.into_iter().zip(terms.scaled.chunks_exact(3)) {
+                for (s, &x) in sum.iter_mut().zip(v) {
+                    *s += i128::from((x * w64) as i64);
+                }
+            }
+        } else {
+            for (sum, v) in sums.into_iter().zip(terms.scaled.chunks_exact(3)) {
+                for (s, &x) in sum.iter_mut().zip(v) {
+                    *s += fixed::on_grid(x * w64);
+                }
+            }
+        }
+        self.weight += i128::from(fixed::scaled(w) as i64);
     }
 
     /// The sample variance of one sample's colour (Bessel-corrected; 0 below two samples).
@@ -73,6 +86,27 @@ impl PixelSums {
             ((self.square[k].value() - sum * sum / n) / (n - 1.0)).max(0.0) as f32
         };
         Rgb::new(v(0), v(1), v(2))
+    }
+}
+
+/// A sample's colour, direct and indirect light on the fixed grid's scale, ready to be
+/// weighted into the pixels its splat reaches ([`PixelSums::add_splat`]).
+pub(crate) struct SplatTerms {
+    scaled: [f64; 9],
+    /// Every value's magnitude is below [`fixed::SMALL`] (the fast conversion suffices).
+    small: bool,
+}
+
+impl SplatTerms {
+    pub(crate) fn new(colour: Rgb, direct: Rgb, indirect: Rgb) -> Self {
+        let values = [colour.to_array(), direct.to_array(), indirect.to_array()];
+        let flat = values.as_flattened();
+        let small = flat.iter().all(|v| v.abs() < fixed::SMALL);
+        let mut scaled = [0.0; 9];
+        for (s, &v) in scaled.iter_mut().zip(flat) {
+            *s = fixed::scaled(v);
+        }
+        Self { scaled, small }
     }
 }
 
