@@ -123,6 +123,10 @@ fn splatted_frames_merge_crop_and_thread_bit_for_bit() {
     let sampled = read("sampled.exr");
     assert!(sampled.channel("Variance.R").is_some());
     assert_ne!(sampled.channel("R").unwrap(), whole.channel("R").unwrap());
+    // More samples than a splatted sum can hold: refused, naming the way out.
+    std::fs::write(d.join("out.png"), b"precious").unwrap();
+    let many = ["render", &xml, "-D", "res=8", "--spp", "50000", "-o", "out.png"];
+    common::assert_fails_cleanly(&many, "--reconstruction sample", &d);
 }
 
 #[test]

@@ -1068,6 +1068,29 @@ mod tests {
     /// The wavefront's lanes kernels (vertices without delta lobes, mesh hits) give the same
     /// picture bit for bit on the SSE baseline and with AVX2 (where the CPU has it): Mitsuba's
     /// Cornell box, and the same box glossy under a sky and a sun, plain and guided.
+    /// A splatted pixel sums up to (2·reach + 1)² terms per sample: the samples per pixel are
+    /// capped so that no fixed-point sum can overflow, with a message naming the way out;
+    /// drawing positions from the filter, or a filtered frame, keeps the usual cap.
+    #[test]
+    fn splatted_sample_counts_are_capped_so_no_sum_can_overflow() {
+        let gaussian = PathSettings { pixel_filter: PixelFilter::Gaussian { stddev: 0.5 }, ..PathSettings::default() };
+        assert_eq!((gaussian.splat_reach(), gaussian.splat_footprint()), (2, 25));
+        let at = |spp: u32, passes: u32, p: PathSettings| PathSettings { spp, passes, ..p }.validate();
+        let cap = (fixed::MAX_TERMS / 25) as u32;
+        assert!(at(cap, 1, gaussian).is_ok());
+        let e = at(cap + 1, 1, gaussian).expect_err("over the cap").to_string();
+        assert!(e.contains("at most 41943 samples per pixel") && e.contains("--reconstruction sample"), "{e}");
+        assert!(at(cap / 2 + 1, 2, gaussian).is_err(), "passes count");
+        let sampled = PathSettings { reconstruction: Reconstruction::Sample, ..gaussian };
+        assert_eq!(sampled.splat_reach(), 0);
+        assert!(at(65_536, 16, sampled).is_ok());
+        let filtered = PathSettings { filter: Filter::Guided(glint_filter::GuidedParams::for_width(64)), ..gaussian };
+        assert_eq!(filtered.splat_reach(), 0);
+        assert!(at(65_536, 1, filtered).is_ok());
+        let wide = PathSettings { pixel_filter: PixelFilter::Tent { radius: 16.0 }, ..gaussian };
+        assert!(at(962, 1, wide).is_ok() && at(963, 1, wide).is_err(), "33 x 33 pixels a sample");
+    }
+
     #[test]
     fn the_lanes_kernels_give_the_same_bits_on_every_instruction_set() {
         use std::sync::atomic::Ordering::Relaxed;
