@@ -630,6 +630,9 @@ pub struct BenchPathArgs {
     /// How camera samples draw their random numbers; default: the scene's.
     #[arg(long, value_enum)]
     pub sampler: Option<SamplerArg>,
+    /// How an unfiltered frame applies a film filter wider than a pixel (as `glint render`).
+    #[arg(long, value_enum, default_value = "splat")]
+    pub reconstruction: ReconstructionArg,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
