@@ -123,6 +123,14 @@ fn splatted_frames_merge_crop_and_thread_bit_for_bit() {
     let sampled = read("sampled.exr");
     assert!(sampled.channel("Variance.R").is_some());
     assert_ne!(sampled.channel("R").unwrap(), whole.channel("R").unwrap());
+    // `bench path` times either.
+    for rc in ["splat", "sample"] {
+        let o = common::glint(
+            &["bench", "path", &xml, "--width", "16", "--height", "16", "--frames", "1", "--reconstruction", rc],
+            &d,
+        );
+        assert!(o.status.success() && String::from_utf8_lossy(&o.stdout).contains("mpaths_per_s_median="), "{rc}");
+    }
     // More samples than a splatted sum can hold: refused, naming the way out.
     std::fs::write(d.join("out.png"), b"precious").unwrap();
     let many = ["render", &xml, "-D", "res=8", "--spp", "50000", "-o", "out.png"];
