@@ -316,6 +316,20 @@ fn progressive_passes_match_render_path() {
     acc.resolve(&world, &Filter::None, &mut film).expect("resolve");
     let (reference, _) = path_frame(&world, &s, &path(8, 2, Filter::None)).expect("render");
     assert!(film.pixels.iter().zip(&reference.pixels).all(|(a, b)| a.colour == b.colour), "8 passes != 8 spp");
+    // With a Gaussian film the passes draw positions from it: `render_path` sampling it.
+    let gaussian = |p: PathSettings, reconstruction| PathSettings {
+        pixel_filter: PixelFilter::Gaussian { stddev: 0.5 },
+        reconstruction,
+        ..p
+    };
+    let mut acc = PathAccumulator::new();
+    for _ in 0..3 {
+        add_path_pass(&mut acc, &world, &s, &gaussian(p, Reconstruction::Splat)).expect("pass");
+    }
+    acc.resolve(&world, &Filter::None, &mut film).expect("resolve");
+    let sampled = gaussian(path(3, 2, Filter::None), Reconstruction::Sample);
+    let (reference, _) = path_frame(&world, &s, &sampled).expect("render");
+    assert!(film.pixels.iter().zip(&reference.pixels).all(|(a, b)| a.colour == b.colour), "Gaussian passes");
     // The filtered accumulation keeps the image's mean (the filter moves light, it does not
     // make or lose it) and it is the same on 1 and 2 threads.
     let run = |threads: usize| {

@@ -13,7 +13,9 @@
 //! the filter off the colour is the exact running average, `render_path` with N·spp samples).
 //! Sample k of pixel p uses the same hash stream as `render_path`'s sample k: the first pass's
 //! first sample goes through the centre, every other one is jittered, and the image is the same
-//! whatever the thread count.
+//! whatever the thread count. A film filter wider than a pixel is applied by drawing each
+//! sample's position from it (`Reconstruction::Sample`), never by splatting: a pixel's sums are
+//! its own samples'.
 //!
 //! A viewer calls this every frame, so nothing is allocated per frame once the size is set: the
 //! first pass after a reset clears each pixel's sums as it traces it, and the filter's planes
@@ -29,7 +31,7 @@ use crate::fixed;
 use crate::settings::ImageSettings;
 use crate::stats::{BandStats, FrameStats};
 use crate::{RenderError, World};
-use glint_core::{Rgb, Vec3};
+use glint_core::{Reconstruction, Rgb, Vec3};
 use glint_filter::Filter;
 use glint_scene::Camera;
 use rayon::prelude::*;
@@ -120,6 +122,10 @@ impl PathAccumulator {
             self.guides.resize(w * h, None);
             self.centre_albedo.resize(w * h, Rgb::ZERO);
         }
+        // Each pixel's sums here are its own samples': a film filter wider than a pixel is
+        // applied by drawing positions from it (the frame `render_path` would splat has the
+        // same image in expectation).
+        let path = &PathSettings { reconstruction: Reconstruction::Sample, ..*path };
         let frame = Frame::new(world, camera, image, path);
         let base = self.passes as u64 * path.spp as u64;
         let first = self.passes == 0;
