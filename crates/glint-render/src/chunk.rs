@@ -806,6 +806,11 @@ mod tests {
         t.height = 1;
         let e = Chunk::from_table(&path, &t).expect_err("table size").to_string();
         assert!(e.contains("its table is 3x1, where the header says 3x2"), "{e}");
+        // A splatted header over an unsplatted table: its weights are not there.
+        let mut t = table.clone();
+        t.attributes[0].1 = t.attributes[0].1.replace("glint.splat=false", "glint.splat=true");
+        let e = Chunk::from_table(&path, &t).expect_err("splat").to_string();
+        assert!(e.contains("channel sum.weight.w0 is missing") && e.contains("part_0.exr"), "{e}");
         // A Whitted header over a path table: of some samples, its records would be taller;
         // of all of them, its channels are not there.
         let mut t = table.clone();
