@@ -797,7 +797,7 @@ fn trace_guides(
     })?;
     if reach > 0 {
         let halos = halos.into_inner().map_err(|_| RenderError::InvalidSetting("a band's splats were lost".into()))?;
-        splat::add_halos(sums.acc, w, reach, &halos);
+        splat::add_halos(sums.acc, w, reach, halos);
     }
     stats.rays.add(&totals.rays);
     stats.rejected_samples += totals.rejected;

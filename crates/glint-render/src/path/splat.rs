@@ -50,7 +50,11 @@ impl<'a> BandSplats<'a> {
     pub(super) fn new(filter: PixelFilter, width: usize, height: usize, y0: usize, own: &'a mut [PixelSums]) -> Self {
         let reach = filter.reach();
         let rows = own.len() / width.max(1);
-        Self { filter, reach, width, height, y0, rows, own, halo: vec![PixelSums::default(); 2 * reach * width] }
+        // A halo of the last pass's, cleared (a fresh one is a fresh mapping: page faults).
+        let mut halo = SPARE.lock().ok().and_then(|mut spare| spare.pop()).unwrap_or_default();
+        halo.clear();
+        halo.resize(2 * reach * width, PixelSums::default());
+        Self { filter, reach, width, height, y0, rows, own, halo }
     }
 
     /// The band's own sums of pixel `k` (row-major in the band).
@@ -101,11 +105,16 @@ impl<'a> BandSplats<'a> {
     }
 }
 
+/// Halos kept for the next pass's bands (a pass holds one per band until its end; at most
+/// [`SPARE_MAX`] are kept).
+static SPARE: std::sync::Mutex<Vec<Vec<PixelSums>>> = std::sync::Mutex::new(Vec::new());
+const SPARE_MAX: usize = 64;
+
 /// Add the bands' halos into the frame's sums `acc` (rows of `width`; rows outside the image
-/// hold nothing and are skipped).
-pub(super) fn add_halos(acc: &mut [PixelSums], width: usize, reach: usize, halos: &[Halo]) {
+/// hold nothing and are skipped), and keep their memory for the next pass's bands.
+pub(super) fn add_halos(acc: &mut [PixelSums], width: usize, reach: usize, halos: Vec<Halo>) {
     let height = acc.len() / width.max(1);
-    for h in halos {
+    for h in &halos {
         let above = (0..reach).map(|r| (h.y0 + r).checked_sub(reach));
         let below = (0..reach).map(|r| Some(h.y0 + h.rows + r));
         for (row, y) in h.sums.chunks_exact(width).zip(above.chain(below)) {
@@ -114,5 +123,9 @@ pub(super) fn add_halos(acc: &mut [PixelSums], width: usize, reach: usize, halos
                 a.add(s);
             }
         }
+    }
+    if let Ok(mut spare) = SPARE.lock() {
+        let room = SPARE_MAX.saturating_sub(spare.len());
+        spare.extend(halos.into_iter().take(room).map(|h| h.sums));
     }
 }
