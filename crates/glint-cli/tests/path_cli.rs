@@ -30,6 +30,21 @@ fn bench_path_names_its_kernels_and_refuses_unknown_ones() {
     assert_fails_cleanly(&[&args[..], &["wavefront,lanes"]].concat(), "wavefront-scalar", &dir);
 }
 
+/// An unknown `--reconstruction` is refused by `render` and `bench path`, naming the choices,
+/// with nothing written.
+#[test]
+fn an_unknown_reconstruction_is_refused() {
+    let dir = scratch("bad-reconstruction");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/mitsuba-cbox.toml");
+    std::fs::write(dir.join("out.png"), b"precious").unwrap();
+    for bad in ["gather", "", "SPLAT "] {
+        let render = ["render", scene, "--width", "8", "--height", "8", "--reconstruction", bad, "-o", "out.png"];
+        assert_fails_cleanly(&render, "splat, sample", &dir);
+        let bench = ["bench", "path", scene, "--width", "8", "--height", "8", "--reconstruction", bad];
+        assert_fails_cleanly(&bench, "splat, sample", &dir);
+    }
+}
+
 #[test]
 fn path_mode_writes_png_and_aov_exr() {
     let dir = scratch("path-render");
