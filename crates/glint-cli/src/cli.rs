@@ -633,6 +633,11 @@ pub struct BenchPathArgs {
     /// How an unfiltered frame applies a film filter wider than a pixel (as `glint render`).
     #[arg(long, value_enum, default_value = "splat")]
     pub reconstruction: ReconstructionArg,
+    /// Sum the path AOVs (Direct, Indirect, SampleCount, Variance) beside the picture, as a
+    /// render to EXR does; without it a frame keeps the picture's sums alone, as a render to
+    /// PNG does.
+    #[arg(long)]
+    pub aovs: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

@@ -123,12 +123,10 @@ fn splatted_frames_merge_crop_and_thread_bit_for_bit() {
     let sampled = read("sampled.exr");
     assert!(sampled.channel("Variance.R").is_some());
     assert_ne!(sampled.channel("R").unwrap(), whole.channel("R").unwrap());
-    // `bench path` times either.
-    for rc in ["splat", "sample"] {
-        let o = common::glint(
-            &["bench", "path", &xml, "--width", "16", "--height", "16", "--frames", "1", "--reconstruction", rc],
-            &d,
-        );
+    // `bench path` times either, with the path AOVs' sums (as a render to EXR) or without.
+    for (rc, aovs) in [("splat", false), ("sample", false), ("splat", true)] {
+        let args = ["bench", "path", &xml, "--width", "16", "--height", "16", "--frames", "1", "--reconstruction", rc];
+        let o = common::glint(&[&args[..], if aovs { &["--aovs"] } else { &[] }].concat(), &d);
         assert!(o.status.success() && String::from_utf8_lossy(&o.stdout).contains("mpaths_per_s_median="), "{rc}");
     }
     // More samples than a splatted sum can hold: refused, naming the way out.

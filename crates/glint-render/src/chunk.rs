@@ -178,8 +178,16 @@ impl Chunk {
     /// Write the chunk to `path` (temp file + rename).
     ///
     /// # Errors
-    /// [`ChunkError`] naming the file when it cannot be written.
+    /// [`ChunkError`] naming the file when it cannot be written, or when its path sums lack
+    /// the path AOVs (a chunk's are read as holding them: [`Renderer::render_part`]'s do).
+    ///
+    /// [`Renderer::render_part`]: crate::Renderer::render_part
     pub fn write(&self, path: &Path) -> Result<(), ChunkError> {
+        if let Part::Path(sums) = &self.part
+            && !sums.aovs
+        {
+            return Err(fail(path, "its path sums were traced without the path AOVs' (a chunk carries them all)"));
+        }
         glint_image::write_exr_table(path, &self.to_table()).map_err(|e| ChunkError { message: e.to_string() })
     }
 
@@ -418,7 +426,8 @@ fn read_path(
     } else {
         None
     };
-    Ok(PathSums { width: t.width, height: t.height, filtered, splat, units, pixels, first })
+    // Chunks are traced with every AOV (`Renderer::render_part`).
+    Ok(PathSums { width: t.width, height: t.height, filtered, splat, aovs: true, units, pixels, first })
 }
 
 /// The Whitted part of table `t` (of records `height` rows each).
@@ -535,6 +544,7 @@ pub fn merge(chunks: impl IntoIterator<Item = Result<(PathBuf, Chunk), ChunkErro
         height: 0,
         filtered: false,
         splat: false,
+        aovs: true,
         units: 0,
         pixels: Vec::new(),
         first: None,
@@ -686,6 +696,7 @@ fn take_in(sum: &mut Sum, path: &Path, c: Chunk, whole: Region) -> Result<(), Ch
                             height: whole.height,
                             filtered: sums.filtered,
                             splat: sums.splat,
+                            aovs: sums.aovs,
                             units: sums.units,
                             pixels: frame_buffer(path, whole, PixelSums::default())?,
                             first: Some(frame_buffer(path, whole, FirstSample::default())?),
@@ -736,7 +747,8 @@ mod tests {
             p.covered = index;
         }
         let first = (a == 0).then(|| vec![FirstSample { depth: 2.5, ..FirstSample::default() }; width as usize * 2]);
-        let sums = PathSums { width, height: 2, filtered: false, splat: false, units: b - a, pixels, first };
+        let sums =
+            PathSums { width, height: 2, filtered: false, splat: false, aovs: true, units: b - a, pixels, first };
         let c = Chunk {
             hash: "ab".repeat(16),
             version: "0.1.0".into(),
@@ -771,6 +783,20 @@ mod tests {
             assert!(table.channels.iter().all(|(name, _)| !name.starts_with("sum.Square")));
             assert_eq!(Chunk::from_table(&path, &table).expect("read back"), c);
         }
+    }
+
+    #[test]
+    fn sums_without_the_path_aovs_are_not_written_as_a_chunk() {
+        let dir = std::env::temp_dir().join(format!("glint-chunk-aovs-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let (_, mut c) = chunk(0, 1, 3);
+        let Part::Path(sums) = &mut c.part else { unreachable!() };
+        sums.aovs = false;
+        let out = dir.join("part.exr");
+        let e = c.write(&out).expect_err("refused");
+        assert!(e.message.contains("part.exr") && e.message.contains("without the path AOVs"), "{}", e.message);
+        assert!(!out.exists());
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]

@@ -341,7 +341,12 @@ impl Renderer {
         out: &mut Vec<u8>,
     ) -> Result<FrameStats, RenderError> {
         let Mode::Whitted(settings) = mode else {
-            let stats = self.render(camera, image, mode, hooks)?;
+            // The picture alone: a path frame keeps no AOV's sums.
+            let beauty = match mode {
+                Mode::Path(path) => &Mode::Path(PathSettings { aovs: false, ..*path }),
+                _ => mode,
+            };
+            let stats = self.render(camera, image, beauty, hooks)?;
             *out = self.film().encode_srgb8(options);
             return Ok(stats);
         };
@@ -650,6 +655,8 @@ impl Renderer {
         };
         match mode {
             Mode::Path(settings) => {
+                // A chunk is merged into any output: it carries every AOV's sums.
+                let settings = &PathSettings { aovs: true, ..*settings };
                 let (mut stats, sums) = render_path_sums(&self.world, camera, image, settings, share, region, hooks)?;
                 let part_image = region.map_or(*image, |r| image.sub(r));
                 stats.summary =

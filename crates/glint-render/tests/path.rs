@@ -36,6 +36,7 @@ fn path(spp: u32, bounces: u32, filter: Filter) -> PathSettings {
         reconstruction: Reconstruction::Splat,
         hide_emitters: false,
         sampler: Sampler::Sobol,
+        aovs: true,
     }
 }
 
@@ -740,6 +741,39 @@ fn the_variance_aov_is_the_variance_of_one_sample() {
     let guided = path(4, 2, Filter::Guided(GuidedParams::for_width(8)));
     let film = path_frame(&world, &settings(8, 8), &guided).expect("render").0;
     assert!(!film.variance && film.aov_image().channel("Variance.R").is_none());
+}
+
+/// A frame without the path AOVs (`aovs: false`, a render to PNG) draws the same picture and
+/// first-hit AOVs bit for bit, splatted, sampled from the filter, in a box or filtered, and its
+/// film holds no path AOV (none is written as zeros).
+#[test]
+fn a_frame_without_path_aovs_draws_the_same_picture() {
+    let world = World::new(mitsuba_cbox());
+    let s = settings(24, 20);
+    let gaussian = PixelFilter::Gaussian { stddev: 0.5 };
+    let guided = Filter::Guided(GuidedParams::for_width(24));
+    let frames = [
+        PathSettings { pixel_filter: gaussian, ..path(3, 3, Filter::None) },
+        PathSettings { pixel_filter: gaussian, reconstruction: Reconstruction::Sample, ..path(3, 3, Filter::None) },
+        path(3, 3, Filter::None),
+        PathSettings { filter_area_direct: true, passes: 2, ..path(2, 2, guided) },
+    ];
+    let bits = |c: Rgb| c.to_array().map(f32::to_bits);
+    for p in frames {
+        let all = path_frame(&world, &s, &p).expect("render").0;
+        let beauty = path_frame(&world, &s, &PathSettings { aovs: false, ..p }).expect("render").0;
+        assert!(all.path_aovs && !beauty.path_aovs && !beauty.variance, "{p:?}");
+        let image = beauty.aov_image();
+        for name in ["Direct.R", "Indirect.G", "SampleCount", "Variance.B"] {
+            assert!(image.channel(name).is_none(), "{name} written without the path AOVs: {p:?}");
+        }
+        assert!(image.channel("Albedo.R").is_some() && image.channel("Z").is_some());
+        for (i, (a, b)) in all.pixels.iter().zip(&beauty.pixels).enumerate() {
+            assert_eq!(bits(a.colour), bits(b.colour), "{p:?}: pixel {i}");
+            assert_eq!(a.coverage.to_bits(), b.coverage.to_bits(), "{p:?}: coverage {i}");
+            assert_eq!(all.surface[i], beauty.surface[i], "{p:?}: first hit {i}");
+        }
+    }
 }
 
 /// Mitsuba's `hide_emitters`: the sky and an emitter seen directly from the camera add nothing,

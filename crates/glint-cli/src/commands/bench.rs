@@ -388,6 +388,7 @@ fn path(a: &BenchPathArgs) -> Result<()> {
     modes.path.max_bounces = a.max_bounces.unwrap_or(modes.path.max_bounces);
     modes.path.sampler = a.sampler.map_or(modes.path.sampler, Into::into);
     modes.path.reconstruction = a.reconstruction.into();
+    modes.path.aovs = a.aovs;
     modes.path.filter = super::render::filter_from_args(a.filter, &clap_defaults::<FilterOptions>()?, w)?;
     modes.path.validate().context("path settings")?;
     if a.kernel.is_empty() {

@@ -103,6 +103,11 @@ pub struct PathSettings {
     /// (Sobol, the default) or independent (Mitsuba's `independent` sampler; what a Variance
     /// AOV's `variance / N` as the error of a pixel's mean assumes).
     pub sampler: Sampler,
+    /// Sum the path AOVs (Direct, Indirect, SampleCount, Variance) beside the beauty (the
+    /// default: a render to EXR writes them). Off, each sample adds its colour alone (with
+    /// Mitsuba's Gaussian film that is 4 of a splat's 10 terms): a frame that shows only the
+    /// picture (a render to PNG) draws the same beauty bit for bit, faster.
+    pub aovs: bool,
 }
 
 /// Whether the lanes take every light the path mode samples in `world` (emissive triangles,
@@ -146,6 +151,7 @@ impl Default for PathSettings {
             reconstruction: Reconstruction::Splat,
             hide_emitters: false,
             sampler: Sampler::Sobol,
+            aovs: true,
         }
     }
 }
@@ -665,6 +671,7 @@ fn trace_sums(
         height: region.height,
         filtered,
         splat: frame.splat.is_some(),
+        aovs: path.aovs,
         units: unit - units.start,
         pixels: acc,
         first,
@@ -773,12 +780,10 @@ fn trace_guides(
                 gs[k].sample = *cs;
             }
             if let Some(splats) = splats.as_mut() {
-                splats.add(k, offset, cs);
+                splats.add(k, offset, cs, path.aovs);
             } else if !filtered {
                 let a = &mut accs[k];
-                a.add_moments(cs.rest + cs.albedo * cs.indirect);
-                fixed::add_rgb(&mut a.direct, cs.direct);
-                fixed::add_rgb(&mut a.indirect, cs.indirect);
+                a.add_sample(cs.rest + cs.albedo * cs.indirect, cs.direct, cs.indirect, path.aovs);
                 a.covered += cs.covered as u32;
                 a.samples += 1;
             }
@@ -879,7 +884,9 @@ fn trace_lookups(
             let g = &guides[i].sample;
             let indirect = filtered.filtered(i);
             pass.push((g.rest + g.albedo * indirect, g.direct));
-            fixed::add_rgb(&mut a.indirect, indirect);
+            if path.aovs {
+                fixed::add_rgb(&mut a.indirect, indirect);
+            }
             a.covered += g.covered as u32;
             a.samples += 1;
         }
@@ -907,7 +914,9 @@ fn trace_lookups(
         });
         for (a, (colour, direct)) in accs.iter_mut().zip(&pass) {
             fixed::add_rgb(&mut a.colour, *colour);
-            fixed::add_rgb(&mut a.direct, *direct);
+            if path.aovs {
+                fixed::add_rgb(&mut a.direct, *direct);
+            }
         }
         hooks.report((accs.len() / rw) as u64);
         BandStats { rays: tracer.counts(), rejected, clamped }

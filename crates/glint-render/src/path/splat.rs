@@ -63,11 +63,11 @@ impl<'a> BandSplats<'a> {
     }
 
     /// Splat a sample of pixel `k` of the band at `offset` in the pixel ([0, 1)²): its
-    /// colour, direct and indirect light into every pixel of the image whose centre the
-    /// filter reaches, weighted; the pixel's own counts.
-    pub(super) fn add(&mut self, k: usize, offset: Vec2, cs: &CameraSample) {
+    /// colour (and when `aovs` its direct and indirect light) into every pixel of the image
+    /// whose centre the filter reaches, weighted; the pixel's own counts.
+    pub(super) fn add(&mut self, k: usize, offset: Vec2, cs: &CameraSample, aovs: bool) {
         let (x, y) = (k % self.width, self.y0 + k / self.width);
-        let terms = SplatTerms::new(cs.rest + cs.albedo * cs.indirect, cs.direct, cs.indirect);
+        let terms = SplatTerms::new(cs.rest + cs.albedo * cs.indirect, cs.direct, cs.indirect, aovs);
         let (mut wx, mut wy) = ([0.0f32; 2 * MAX_REACH + 1], [0.0f32; 2 * MAX_REACH + 1]);
         self.filter.splat_weights(offset.x, &mut wx);
         self.filter.splat_weights(offset.y, &mut wy);
