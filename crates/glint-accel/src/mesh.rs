@@ -86,6 +86,20 @@ impl MeshBvh {
         }
     }
 
+    /// Whether [`MeshBvh::intersect8`] and [`MeshBvh::occluded8`] walk any rays of one
+    /// direction octant together, coherent or not (a tree of one node, 8-wide, AVX2): their
+    /// leaves then test triangles against the rays in lanes when the rays also share their
+    /// dominant axis (the watertight test's axis permutation), so a caller that can order its
+    /// rays does best to group them by octant and dominant axis
+    /// ([`crate::primitives::dominant_axis`]).
+    #[must_use]
+    pub fn packs_any_rays(&self) -> bool {
+        match &self.layout {
+            Layout::Four(_) => false,
+            Layout::Eight(b) => self.isa == Isa::Avx2 && Isa::detect() == Isa::Avx2 && b.packs_any_rays(),
+        }
+    }
+
     /// Any hits of up to 8 rays: `out[i] == occluded(&rays[i])`.
     pub fn occluded8(&self, rays: &[Ray; 8], out: &mut [bool; 8]) {
         match &self.layout {

@@ -43,18 +43,28 @@ pub(crate) struct WoopRay {
     pub org: [f32; 3],
 }
 
+/// The axis along which `dir` is largest in magnitude (ties to the lower axis): the watertight
+/// triangle test's `kz`, which with the sign of that component fixes its permutation of the
+/// axes. Rays that share it and their direction octant can be tested against a triangle in
+/// lanes ([`crate::MeshBvh::packs_any_rays`]).
+#[inline]
+#[must_use]
+pub fn dominant_axis(dir: Vec3) -> usize {
+    let a = dir.abs();
+    if a.x >= a.y && a.x >= a.z {
+        0
+    } else if a.y >= a.z {
+        1
+    } else {
+        2
+    }
+}
+
 impl WoopRay {
     #[inline]
     pub fn new(ray: &Ray) -> Self {
         let d = ray.dir.to_array();
-        let a = ray.dir.abs();
-        let kz = if a.x >= a.y && a.x >= a.z {
-            0
-        } else if a.y >= a.z {
-            1
-        } else {
-            2
-        };
+        let kz = dominant_axis(ray.dir);
         let mut kx = (kz + 1) % 3;
         let mut ky = (kx + 1) % 3;
         // Keep the winding of the projected triangle (the paper's step 1); both faces are

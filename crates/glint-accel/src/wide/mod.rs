@@ -269,6 +269,13 @@ impl<const N: usize> WideBvh<N> {
     pub fn depth(&self) -> usize {
         self.depth
     }
+    /// A tree of one node (every child a leaf: up to `N` leaves, a few dozen triangles), where
+    /// the 8-ray queries walk every octant group as a packet, coherent or not
+    /// (`packet.rs`).
+    #[must_use]
+    pub fn packs_any_rays(&self) -> bool {
+        self.nodes.len() == 1
+    }
     pub fn leaf_count(&self) -> usize {
         self.leaves
     }

@@ -14,7 +14,12 @@
 //! the result does not depend on the visiting order: `out[i]` equals the single-ray kernel's
 //! answer for `rays[i]`. Rays are grouped by direction octant (the near/far planes are picked
 //! per octant, as in the single-ray kernel); a group of one ray, and a group whose directions
-//! spread wider than a cone ([`coherent`]), takes the single-ray kernel ray by ray.
+//! spread wider than a cone ([`coherent`]), takes the single-ray kernel ray by ray, except in
+//! a tree of one node ([`WideBvh::packs_any_rays`]): there every packet walks the same root and
+//! then the leaves its rays' boxes meet, so incoherent rays lose nothing by walking together,
+//! and a leaf met by enough of them tests its triangles against the rays in lanes (diffuse
+//! bounce rays of Mitsuba's Cornell box, 38 triangles, binned by octant and dominant axis as
+//! the path tracer's wavefront bins them: 16.9 → 20.7 M rays/s on one thread).
 
 use super::dispatch::{Any, Closest};
 use super::frustum::{Frustum, LeafLanes, closest_frustum};
@@ -189,8 +194,9 @@ pub(super) fn intersect8(bvh: &WideBvh<8>, rays: &[Ray; 8], out: &mut [Option<Hi
 fn intersect8_avx(bvh: &WideBvh<8>, rays: &[Ray; 8], out: &mut [Option<Hit>; 8]) {
     *out = [None; 8];
     let lanes = RayLanes::new(rays);
+    let any = bvh.packs_any_rays();
     for_each_octant(&lanes, |group, oct| {
-        if group & (group - 1) == 0 || !lanes.coherent(group) {
+        if group & (group - 1) == 0 || !(any || lanes.coherent(group)) {
             for i in Lanes(group) {
                 out[i] = avx2::run8::<Closest>(bvh, &rays[i]);
             }
@@ -210,8 +216,9 @@ pub(super) fn occluded8(bvh: &WideBvh<8>, rays: &[Ray; 8], out: &mut [bool; 8]) 
 fn occluded8_avx(bvh: &WideBvh<8>, rays: &[Ray; 8], out: &mut [bool; 8]) {
     *out = [false; 8];
     let lanes = RayLanes::new(rays);
+    let any = bvh.packs_any_rays();
     for_each_octant(&lanes, |group, oct| {
-        if group & (group - 1) == 0 || !lanes.coherent(group) {
+        if group & (group - 1) == 0 || !(any || lanes.coherent(group)) {
             for i in Lanes(group) {
                 out[i] = avx2::run8::<Any>(bvh, &rays[i]);
             }
@@ -643,6 +650,42 @@ mod tests {
             let target = (rng.next_vec3() - 0.5) * 1.5;
             check(&bvh8(&m, 8), &camera_tiles(target, dist, seed));
         }
+    }
+
+    /// Incoherent rays (diffuse bounces inside the soup's box) through a tree of one node,
+    /// whose packets take them whatever their spread: grouped by octant and dominant axis, as
+    /// the path tracer bins them (their leaves test them in lanes), and in arbitrary order.
+    #[test]
+    fn one_node_trees_pack_incoherent_rays_as_single_rays_answer() {
+        let mut packed = 0;
+        for seed in 0..24u64 {
+            let m = triangle_soup(6 + seed as usize * 2, 0.3, seed);
+            let b = bvh8(&m, 4 + seed as usize % 5);
+            if !b.packs_any_rays() {
+                assert!(b.nodes.len() > 1);
+                continue;
+            }
+            packed += 1;
+            let mut rng = Rng::new(seed ^ 0x5eed);
+            let mut rays: Vec<Ray> = (0..4096)
+                .map(|k| {
+                    let r = Ray::new(rng.next_vec3(), rng.next_dir());
+                    if k % 7 == 0 { Ray::segment(r.origin, r.dir, 0.0, rng.next_f32()) } else { r }
+                })
+                .collect();
+            let key = |r: &Ray| {
+                let d = r.dir;
+                let octant = usize::from(d.x < 0.0) | usize::from(d.y < 0.0) << 1 | usize::from(d.z < 0.0) << 2;
+                octant * 3 + crate::primitives::dominant_axis(d)
+            };
+            let tiles = |rays: &[Ray]| -> Vec<[Ray; 8]> {
+                rays.chunks_exact(8).map(|c| <[Ray; 8]>::try_from(c).expect("8 rays")).collect()
+            };
+            check(&b, &tiles(&rays));
+            rays.sort_by_key(key);
+            check(&b, &tiles(&rays));
+        }
+        assert!(packed >= 8, "only {packed} of the trees were of one node");
     }
 
     #[test]

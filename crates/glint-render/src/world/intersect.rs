@@ -77,6 +77,14 @@ impl World {
         self.lone_mesh().is_some()
     }
 
+    /// Whether the 8-ray queries walk incoherent rays of one octant together too (one small
+    /// tree: [`glint_accel::MeshBvh::packs_any_rays`]), so that callers who order their rays
+    /// group them by octant and dominant axis.
+    #[must_use]
+    pub fn packs_any_rays(&self) -> bool {
+        self.lone_mesh().is_some_and(|lone| lone.bvh.packs_any_rays())
+    }
+
     /// [`World::hit_distance`] of up to 8 rays (coherent ones, e.g. a 4×2 pixel tile, gain):
     /// `out[i] == hit_distance(&rays[i])` bit for bit.
     pub fn hit_distance8(&self, rays: &[Ray; 8], out: &mut [Option<f32>; 8]) {

@@ -27,6 +27,39 @@ fn scene(extra: Option<Shape>, world_from_object: Affine3A) -> Scene {
     }
 }
 
+/// A scene of one small mesh (a tree of one node) walks incoherent rays as packets too
+/// (`World::packs_any_rays`, what the wavefront bins its rays by), with the single-ray answers;
+/// a larger one does not.
+#[test]
+fn a_small_mesh_packs_incoherent_rays() {
+    let m = glint_accel::procedural::icosphere(0);
+    let mesh = Mesh { name: "ico".into(), positions: m.positions, triangles: m.triangles, ..Mesh::default() };
+    let small = Scene {
+        meshes: vec![Arc::new(mesh)],
+        objects: vec![Object {
+            name: "ico".into(),
+            shape: Shape::Mesh(0),
+            material: 0,
+            world_from_object: Affine3A::IDENTITY,
+        }],
+        ..scene(None, Affine3A::IDENTITY)
+    };
+    let world = World::new(small);
+    assert_eq!(world.packs_any_rays(), glint_accel::Isa::detect() == glint_accel::Isa::Avx2);
+    assert!(!World::new(scene(None, Affine3A::IDENTITY)).packs_any_rays());
+    let mut rng = glint_accel::procedural::Rng::new(3);
+    for k in 0..500 {
+        let rays: [Ray; 8] = std::array::from_fn(|_| Ray::new((rng.next_vec3() - 0.5) * 1.5, rng.next_dir()));
+        let (mut hits, mut occ) = ([None; 8], [false; 8]);
+        world.intersect8(&rays, &mut hits);
+        world.occluded8(&rays, &mut occ);
+        for i in 0..8 {
+            assert_eq!(format!("{:?}", hits[i]), format!("{:?}", world.intersect(&rays[i])), "packet {k} lane {i}");
+            assert_eq!(occ[i], world.occluded(&rays[i]), "packet {k} lane {i}");
+        }
+    }
+}
+
 /// 8-ray queries equal the single-ray ones bit for bit, on the packet path (one mesh) and
 /// on the looping path (a plane or a transform in the scene), for primary tiles (distances
 /// and whole surface hits) and shadow rays.

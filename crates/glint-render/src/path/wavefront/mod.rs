@@ -5,13 +5,17 @@
 //!
 //! Each round:
 //! 1. **trace**: the live paths, binned by direction octant (a counting sort: a packet of one
-//!    octant walks the tree with one near/far plane choice), eight rays per packet query;
+//!    octant walks the tree with one near/far plane choice), eight rays per packet query; in
+//!    a scene of one small tree, whose packets take incoherent rays too
+//!    (`World::packs_any_rays`), binned by octant and dominant axis, so that a packet's rays
+//!    share the watertight test's axis order and its leaves test them in lanes;
 //! 2. **shade**: every hit at once — emission with its MIS weight, the BSDF, the light samples
 //!    of next-event estimation (queued as shadow rays with what each adds when unblocked), the
 //!    next direction, Russian roulette; survivors are compacted into the next round's paths
 //!    (the vertices on surfaces without delta lobes, in a scene whose lights the lanes take,
 //!    are queued and shaded eight at a time in lanes: [`phong8`]);
-//! 3. **shadows**: the round's shadow rays binned by octant and asked as any-hit packets;
+//! 3. **shadows**: the round's shadow rays binned as the paths are and asked as any-hit
+//!    packets;
 //! 4. the paths that ended this round hand their radiance to their camera sample.
 //!
 //! The estimator is the recursive integrator's ([`super::integrator`]), vertex for vertex: the
@@ -146,6 +150,8 @@ pub(super) struct Wavefront<'a> {
     batch: Batch,
     /// The suns the lanes take (`LightSet::suns`; empty when the batch is off).
     suns: Vec<(Vec3, Rgb)>,
+    /// How rays are binned before they are traced.
+    bins: Bins,
 }
 
 /// How a round's vertices on surfaces without delta lobes are shaded.
@@ -192,7 +198,8 @@ impl<'a> Wavefront<'a> {
             (Some(_), true) => Batch::Lanes,
             (Some(_), false) => Batch::Scalar,
         };
-        Self { world, frame, counts: RayCounts::default(), q, batch, suns: suns.unwrap_or_default() }
+        let bins = if world.packs_any_rays() { Bins::OctantAndAxis } else { Bins::Octant };
+        Self { world, frame, counts: RayCounts::default(), q, batch, suns: suns.unwrap_or_default(), bins }
     }
 
     /// Trace the camera samples `requests`; `out[i]` is request `i`'s offset in its pixel
@@ -213,7 +220,7 @@ impl<'a> Wavefront<'a> {
         let mut binned = true;
         while !self.q.paths.is_empty() {
             if !binned {
-                bin_paths(&self.q.paths, &mut self.q.next);
+                bin_paths(&self.q.paths, &mut self.q.next, self.bins);
                 std::mem::swap(&mut self.q.paths, &mut self.q.next);
             }
             binned = false;
@@ -613,14 +620,14 @@ impl<'a> Wavefront<'a> {
         });
     }
 
-    /// The round's shadow rays, binned by octant, as any-hit packets; the unblocked ones add
-    /// their light.
+    /// The round's shadow rays, binned as the paths are, as any-hit packets; the unblocked
+    /// ones add their light.
     fn trace_shadows(&mut self, out: &mut [(Vec2, CameraSample)]) {
         let n = self.q.shadows.len();
         if n == 0 {
             return;
         }
-        octant_order(self.q.shadows.iter().map(|s| s.ray.dir), &mut self.q.order);
+        bin_order(self.q.shadows.iter().map(|s| s.ray.dir), &mut self.q.order, self.bins);
         let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); 8];
         let mut blocked = [false; 8];
         for start in (0..n).step_by(8) {
@@ -665,10 +672,33 @@ fn shadow_to(dest: Dest, filter_direct: bool, ray: Ray, c: Rgb, diffuse: Rgb) ->
     }
 }
 
-/// Direction octant: bit `a` set where axis `a` of `d` has its sign bit set.
-#[inline]
-fn octant(d: Vec3) -> usize {
-    d.x.is_sign_negative() as usize | (d.y.is_sign_negative() as usize) << 1 | (d.z.is_sign_negative() as usize) << 2
+/// How a round's rays are binned before they are traced: a stable counting sort by a key of
+/// their direction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Bins {
+    /// By direction octant (8 bins): a packet of one octant walks the tree with one near/far
+    /// plane choice. Finer bins made Sponza's frame slower (its packets are coherent rays, in
+    /// pixel order within a bin).
+    Octant,
+    /// By octant and dominant axis (24 bins): for a tree whose packets take incoherent rays,
+    /// whose leaves test rays in lanes only when they share the watertight test's axis order
+    /// (Mitsuba's Cornell box: BENCHMARKS.md §13.11).
+    OctantAndAxis,
+}
+
+impl Bins {
+    const MAX: usize = 24;
+
+    #[inline]
+    fn of(self, d: Vec3) -> usize {
+        let octant = d.x.is_sign_negative() as usize
+            | (d.y.is_sign_negative() as usize) << 1
+            | (d.z.is_sign_negative() as usize) << 2;
+        match self {
+            Bins::Octant => octant,
+            Bins::OctantAndAxis => octant * 3 + glint_accel::primitives::dominant_axis(d),
+        }
+    }
 }
 
 impl Drop for Wavefront<'_> {
@@ -680,40 +710,40 @@ impl Drop for Wavefront<'_> {
     }
 }
 
-/// `out` = `paths` stably binned by their rays' direction octants (a counting sort).
-fn bin_paths(paths: &[Path], out: &mut Vec<Path>) {
-    let mut start = [0usize; 9];
+/// `out` = `paths` stably binned by their rays' directions.
+fn bin_paths(paths: &[Path], out: &mut Vec<Path>, bins: Bins) {
+    let mut start = [0usize; Bins::MAX + 1];
     for p in paths {
-        start[octant(p.ray.dir) + 1] += 1;
+        start[bins.of(p.ray.dir) + 1] += 1;
     }
-    for o in 1..9 {
+    for o in 1..=Bins::MAX {
         start[o] += start[o - 1];
     }
     out.clear();
     let Some(&first) = paths.first() else { return };
     out.resize(paths.len(), first);
     for p in paths {
-        let o = octant(p.ray.dir);
+        let o = bins.of(p.ray.dir);
         out[start[o]] = *p;
         start[o] += 1;
     }
 }
 
-/// `order` = the indices of `dirs` stably binned by direction octant.
-fn octant_order(dirs: impl Iterator<Item = Vec3> + Clone, order: &mut Vec<u32>) {
-    let mut start = [0usize; 9];
+/// `order` = the indices of `dirs` stably binned by direction.
+fn bin_order(dirs: impl Iterator<Item = Vec3> + Clone, order: &mut Vec<u32>, bins: Bins) {
+    let mut start = [0usize; Bins::MAX + 1];
     let mut n = 0;
     for d in dirs.clone() {
-        start[octant(d) + 1] += 1;
+        start[bins.of(d) + 1] += 1;
         n += 1;
     }
-    for o in 1..9 {
+    for o in 1..=Bins::MAX {
         start[o] += start[o - 1];
     }
     order.clear();
     order.resize(n, 0);
     for (i, d) in dirs.enumerate() {
-        let o = octant(d);
+        let o = bins.of(d);
         order[start[o]] = i as u32;
         start[o] += 1;
     }
