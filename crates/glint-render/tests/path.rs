@@ -743,6 +743,26 @@ fn the_variance_aov_is_the_variance_of_one_sample() {
     assert!(!film.variance && film.aov_image().channel("Variance.R").is_none());
 }
 
+/// A time budget without a filter traces its passes in steps of many (the sums do not depend
+/// on the grouping): the frame is the fixed frame of as many samples, bit for bit, AOVs
+/// included, and reports its passes of `spp`; with a filter every pass is its own step.
+#[test]
+fn a_time_budget_is_the_frame_of_as_many_samples() {
+    let world = World::new(mitsuba_cbox());
+    let s = settings(24, 20);
+    let gaussian = PixelFilter::Gaussian { stddev: 0.5 };
+    let budget = Some(std::time::Duration::from_millis(150));
+    for p in [PathSettings { pixel_filter: gaussian, ..path(2, 3, Filter::None) }, path(1, 2, Filter::None)] {
+        let (timed, stats) = path_frame(&world, &s, &PathSettings { time_budget: budget, ..p }).expect("render");
+        let n = stats.samples_per_pixel;
+        assert!(n > 2 * p.spp && n % p.spp == 0, "{n} spp in the budget");
+        assert_eq!(stats.passes, n / p.spp);
+        let (fixed, _) = path_frame(&world, &s, &PathSettings { spp: n, ..p }).expect("render");
+        assert_eq!(timed.pixels, fixed.pixels, "{n} spp");
+        assert_eq!(timed.path, fixed.path, "{n} spp");
+    }
+}
+
 /// A frame without the path AOVs (`aovs: false`, a render to PNG) draws the same picture and
 /// first-hit AOVs bit for bit, splatted, sampled from the filter, in a box or filtered, and its
 /// film holds no path AOV (none is written as zeros).
