@@ -195,6 +195,11 @@ pub struct RenderArgs {
     /// Write RGBA PNG with coverage as alpha.
     #[arg(long)]
     pub alpha: bool,
+    /// EXR output: write the picture alone (R, G, B, A), without the AOVs; a path frame then
+    /// does not sum its path AOVs (faster, the same picture). Not with --chunk or --tile (a
+    /// chunk carries every AOV for the merge).
+    #[arg(long = "beauty-only")]
+    pub beauty_only: bool,
     #[command(flatten)]
     pub camera: CameraArgs,
     #[command(flatten)]

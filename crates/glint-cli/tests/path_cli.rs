@@ -93,6 +93,35 @@ fn bench_path_reports_each_stage_as_render_does() {
     assert!(out.lines().last().is_some_and(|l| l.starts_with("mpaths_per_s_median=")), "{out}");
 }
 
+/// `--beauty-only` writes an EXR of the picture alone (R, G, B, A), the bits of the full EXR's
+/// picture (the path AOVs' sums are skipped, not the picture's), for a Mitsuba scene's
+/// splatting film and a glint scene; with --chunk it is refused, nothing written.
+#[test]
+fn beauty_only_writes_the_same_picture_without_the_aovs() {
+    let dir = scratch("path-beauty-only");
+    let xml = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/mitsuba/scenes/cbox/cbox.xml");
+    let toml = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/mitsuba-cbox.toml");
+    for scene in [xml, toml] {
+        let args = ["render", scene, "--width", "24", "--height", "20", "--spp", "3", "-q"];
+        for (extra, out) in [(&[][..], "all.exr"), (&["--beauty-only"][..], "beauty.exr")] {
+            let o = glint(&[&args[..], extra, &["-o", out]].concat(), &dir);
+            assert!(o.status.success(), "{}", stderr(&o));
+        }
+        let read = |f: &str| glint_image::read_image(&dir.join(f)).unwrap();
+        let (all, beauty) = (read("all.exr"), read("beauty.exr"));
+        let mut names: Vec<&str> = beauty.channels.iter().map(|c| c.name.as_str()).collect();
+        names.sort_unstable();
+        assert_eq!(names, ["A", "B", "G", "R"], "{scene}");
+        assert!(all.channel("Direct.R").is_some() && all.channel("Z").is_some());
+        for c in ["R", "G", "B", "A"] {
+            assert_eq!(beauty.channel(c), all.channel(c), "{scene}: {c}");
+        }
+    }
+    std::fs::write(dir.join("part.exr"), b"precious").unwrap();
+    let chunk = ["render", toml, "--spp", "2", "--beauty-only", "--chunk", "0/2", "-o", "part.exr"];
+    common::assert_fails_keeping(&chunk, "--beauty-only", &dir, "part.exr");
+}
+
 #[test]
 fn a_time_budget_renders_several_passes() {
     let dir = scratch("path-time");

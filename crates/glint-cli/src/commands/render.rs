@@ -19,7 +19,10 @@ use std::time::Duration;
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub enum OutputKind {
     Png,
+    /// Every AOV.
     Exr,
+    /// The picture alone (`--beauty-only`).
+    ExrBeauty,
 }
 
 pub fn output_kind(path: &Path) -> Result<OutputKind> {
@@ -490,7 +493,16 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         );
     }
     apply_overrides(&mut scene, args)?;
-    let (image, frame_mode) = frame_settings(args, &scene)?;
+    let (image, mut frame_mode) = frame_settings(args, &scene)?;
+    if args.beauty_only {
+        if split.is_some() {
+            bail!("--beauty-only leaves out the AOVs, and a chunk or tile carries them all for `glint merge`");
+        }
+        // The picture alone: a path frame keeps no AOV's sums.
+        if let Mode::Path(path) = &mut frame_mode {
+            path.aovs = false;
+        }
+    }
     let points_mode = frame_mode.kind() == RenderMode::Points;
     if points_mode && scene.clouds.is_empty() {
         bail!("--mode points draws point clouds, and this scene has none (use --mode whitted or path)");
@@ -615,10 +627,15 @@ fn png_options(args: &RenderArgs) -> PngOptions {
 }
 
 fn write_output(args: &RenderArgs, output: &Path, film: &Film, summary: &str) -> Result<()> {
-    write_film(output, output_kind(output)?, film, &png_options(args), summary, args.quiet)
+    let kind = match output_kind(output)? {
+        OutputKind::Exr if args.beauty_only => OutputKind::ExrBeauty,
+        kind => kind,
+    };
+    write_film(output, kind, film, &png_options(args), summary, args.quiet)
 }
 
-/// Write a film to `output`: the beauty as PNG, or every AOV as EXR (atomically).
+/// Write a film to `output`: the beauty as PNG, every AOV as EXR, or the beauty alone as EXR
+/// (atomically).
 pub fn write_film(
     output: &Path,
     kind: OutputKind,
@@ -632,6 +649,7 @@ pub fn write_film(
     let channels: u64 = match kind {
         OutputKind::Png => 1 + 1,
         OutputKind::Exr => 21 + 21,
+        OutputKind::ExrBeauty => 4 + 4,
     };
     let pixels = u64::from(film.width) * u64::from(film.height);
     let what = || format!("the output image {} ({} x {})", output.display(), film.width, film.height);
@@ -642,6 +660,7 @@ pub fn write_film(
             glint_image::write_png_srgb8(output, film.width, film.height, options.alpha, &pixels)
         }
         OutputKind::Exr => glint_image::write_exr_owned(output, film.aov_image()),
+        OutputKind::ExrBeauty => glint_image::write_exr_owned(output, film.beauty_image(true)),
     };
     written.with_context(|| format!("cannot write {}", output.display()))?;
     if !quiet {
