@@ -8,12 +8,12 @@
 //! fall on rows above or below it go to the band's own halo, added into the frame's sums after
 //! every band is done ([`add_halos`]). The sums are fixed point (`crate::fixed`): the order in
 //! which splats land does not change a bit, and each splat's weight is formed from the
-//! sample's offset in its pixel and a small integer only ([`PixelFilter::splat_weights`]), so
+//! sample's offset in its pixel and small integers only ([`SplatWeights`]), so
 //! neither thread count, band size nor a tile's place in the frame changes a pixel.
 
 use super::integrator::CameraSample;
 use super::sums::{PixelSums, SplatTerms};
-use glint_core::pixel_filter::MAX_REACH;
+use glint_core::pixel_filter::{MAX_REACH, SplatWeights};
 use glint_core::{PixelFilter, Vec2};
 
 /// Rows per band when samples are splatted: at least four times the filter's reach, so a
@@ -25,7 +25,7 @@ pub(super) fn band_rows(reach: usize, rows: usize) -> usize {
 /// One band's splats: its own rows' sums, and a halo for the rows the filter reaches beyond
 /// them.
 pub(super) struct BandSplats<'a> {
-    filter: PixelFilter,
+    weights: SplatWeights,
     reach: usize,
     width: usize,
     height: usize,
@@ -54,7 +54,7 @@ impl<'a> BandSplats<'a> {
         let mut halo = SPARE.lock().ok().and_then(|mut spare| spare.pop()).unwrap_or_default();
         halo.clear();
         halo.resize(2 * reach * width, PixelSums::default());
-        Self { filter, reach, width, height, y0, rows, own, halo }
+        Self { weights: SplatWeights::new(filter), reach, width, height, y0, rows, own, halo }
     }
 
     /// The band's own sums of pixel `k` (row-major in the band).
@@ -69,8 +69,8 @@ impl<'a> BandSplats<'a> {
         let (x, y) = (k % self.width, self.y0 + k / self.width);
         let terms = SplatTerms::new(cs.rest + cs.albedo * cs.indirect, cs.direct, cs.indirect, aovs);
         let (mut wx, mut wy) = ([0.0f32; 2 * MAX_REACH + 1], [0.0f32; 2 * MAX_REACH + 1]);
-        self.filter.splat_weights(offset.x, &mut wx);
-        self.filter.splat_weights(offset.y, &mut wy);
+        self.weights.fill(offset.x, &mut wx);
+        self.weights.fill(offset.y, &mut wy);
         let r = self.reach;
         // The columns the splat covers inside the image, and their weights.
         let (first, last) = (x.saturating_sub(r), (x + r).min(self.width - 1));
