@@ -1095,12 +1095,8 @@ mod tests {
     use super::*;
     use crate::settings::ImageSettings;
 
-    /// The wavefront's lanes kernels (vertices without delta lobes, mesh hits) give the same
-    /// picture bit for bit on the SSE baseline and with AVX2 (where the CPU has it): Mitsuba's
-    /// Cornell box, and the same box glossy under a sky and a sun, plain and guided.
-    /// A splatted pixel sums up to (2·reach + 1)² terms per sample: the samples per pixel are
-    /// capped so that no fixed-point sum can overflow, with a message naming the way out;
-    /// drawing positions from the filter, or a filtered frame, keeps the usual cap.
+    /// A time budget's steps: none once a pass no longer fits, a pass at a time with a filter,
+    /// half of what fits without one.
     #[test]
     fn a_time_budget_steps_through_half_of_what_fits() {
         let ms = Duration::from_millis;
@@ -1112,6 +1108,9 @@ mod tests {
         assert_eq!(next_step(ms(15), Duration::ZERO, false), 7_500_000, "no time measured: 1 ns a pass");
     }
 
+    /// A splatted pixel sums up to (2·reach + 1)² terms per sample: the samples per pixel are
+    /// capped so that no fixed-point sum can overflow, with a message naming the way out;
+    /// drawing positions from the filter, or a filtered frame, keeps the usual cap.
     #[test]
     fn splatted_sample_counts_are_capped_so_no_sum_can_overflow() {
         let gaussian = PathSettings { pixel_filter: PixelFilter::Gaussian { stddev: 0.5 }, ..PathSettings::default() };
@@ -1132,6 +1131,9 @@ mod tests {
         assert!(at(962, 1, wide).is_ok() && at(963, 1, wide).is_err(), "33 x 33 pixels a sample");
     }
 
+    /// The wavefront's lanes kernels (vertices without delta lobes, mesh hits) give the same
+    /// picture bit for bit on the SSE baseline and with AVX2 (where the CPU has it): Mitsuba's
+    /// Cornell box, and the same box glossy under a sky and a sun, plain and guided.
     #[test]
     fn the_lanes_kernels_give_the_same_bits_on_every_instruction_set() {
         use std::sync::atomic::Ordering::Relaxed;
