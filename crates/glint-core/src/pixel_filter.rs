@@ -67,15 +67,6 @@ impl PixelFilter {
         ((self.radius() + 0.5).ceil() as usize).saturating_sub(1).min(MAX_REACH)
     }
 
-    /// The 1-D splat weights of a sample at offset `o ∈ [0, 1)` within its pixel: `out[j]` is
-    /// the profile at the centre of the pixel `j − reach` away, `eval(j − reach + ½ − o)`, for
-    /// `j` in `0..=2·reach` (entries beyond are left alone); [`SplatWeights`] with its
-    /// constants formed for this call.
-    #[inline]
-    pub fn splat_weights(&self, o: f32, out: &mut [f32; 2 * MAX_REACH + 1]) {
-        SplatWeights::new(*self).fill(o, out);
-    }
-
     /// The unnormalised 1-D profile at offset `x` from the pixel centre.
     pub fn eval(&self, x: f32) -> f32 {
         let r = self.radius();
@@ -189,10 +180,11 @@ fn tabulate_quantiles(filter: &PixelFilter) -> Vec<f32> {
     quantiles
 }
 
-/// A filter's 1-D splat weights ([`PixelFilter::splat_weights`]) with the constants of its
-/// profile formed once (per band of a frame), so that a sample's weights cost two
-/// exponentials per axis, not one per pixel reached (libm's `expf` was 2.5–3 % of a Mitsuba
-/// Cornell box frame).
+/// A filter's 1-D splat weights: for a sample at offset `o ∈ [0, 1)` in its pixel, weight `j`
+/// is the profile at the centre of the pixel `j − reach` away, `eval(j − reach + ½ − o)`, for
+/// `j` in `0..=2·reach`. The constants of the profile are formed once (per band of a frame),
+/// so that a sample's weights cost two exponentials per axis, not one per pixel reached
+/// (libm's `expf` was 2.5–3 % of a Mitsuba Cornell box frame).
 ///
 /// The Gaussian's `e(x) = exp(α x²)` at the pixel centres `x = d + m` (`d = ½ − o`, `m` an
 /// integer) is carried outward from the sample's own pixel by the ratio of neighbours,
@@ -235,7 +227,7 @@ impl SplatWeights {
     }
 
     /// The weights of a sample at offset `o ∈ [0, 1)` in its pixel into `out[0..=2·reach]`
-    /// (as [`PixelFilter::splat_weights`]).
+    /// (entries beyond are left alone).
     #[inline]
     pub fn fill(&self, o: f32, out: &mut [f32; 2 * MAX_REACH + 1]) {
         let reach = self.reach;
@@ -330,7 +322,7 @@ mod tests {
     #[test]
     fn splat_weights_reach_exactly_the_pixels_the_filter_covers() {
         let mut w = [f32::NAN; 2 * MAX_REACH + 1];
-        PixelFilter::Box.splat_weights(0.3, &mut w);
+        SplatWeights::new(PixelFilter::Box).fill(0.3, &mut w);
         assert_eq!((PixelFilter::Box.reach(), w[0]), (0, 1.0));
         let filters = [
             (PixelFilter::Tent { radius: 1.0 }, 1),
@@ -344,7 +336,7 @@ mod tests {
             let r = f.radius();
             for o in [0.0, 1e-4, 0.25, 0.5, 0.75, 0.9999] {
                 let mut w = [f32::NAN; 2 * MAX_REACH + 1];
-                f.splat_weights(o, &mut w);
+                SplatWeights::new(f).fill(o, &mut w);
                 for (j, &wj) in w.iter().enumerate().take(2 * reach + 1) {
                     let d = j as f32 - reach as f32 + 0.5 - o;
                     match f {
