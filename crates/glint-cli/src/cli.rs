@@ -788,6 +788,11 @@ pub struct BenchRaysArgs {
     pub scene: PathBuf,
     #[arg(long, value_enum, default_value = "primary")]
     pub kind: RayKind,
+    /// Time any-hit queries (is anything hit?) on the rays instead of closest hits, as
+    /// Embree's rtcOccluded1 does on every dump (shadow rays are always any-hit queries): a
+    /// diffuse kind's any-hit rays are the path tracer's incoherent shadow rays (sky light).
+    #[arg(long)]
+    pub any_hit: bool,
     #[arg(long, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub threads: Option<usize>,
     #[arg(long, default_value_t = 1024, allow_negative_numbers = true, value_parser = unsigned::<u32>)]

@@ -126,6 +126,36 @@ fn bench_rays_dumps_what_it_traced() {
     }
 }
 
+/// `--any-hit` asks the same rays whether they hit anything: every ray the closest-hit pass
+/// finds a hit for is occluded, every miss is not (the dumps' hit files, 1.0 or +inf for
+/// any-hit queries, a distance or +inf for closest hits).
+#[test]
+fn bench_rays_any_hit_agrees_with_closest_hits() {
+    let Some(bunny) = shared("data/meshes/stanford_bunny_bun_zipper.ply") else { return };
+    let d = scratch("bench-any");
+    let run = |prefix: &str, any: bool| {
+        let mut args = vec!["bench", "rays", "--scene", bunny.to_str().unwrap(), "--kind", "diffuse"];
+        args.extend(["--width", "64", "--height", "48", "--reps", "1", "--dump", prefix]);
+        if any {
+            args.push("--any-hit");
+        }
+        let o = glint(&args, &d);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let out = String::from_utf8_lossy(&o.stdout).to_string();
+        assert_eq!(out.contains("any-hit queries"), any, "{out}");
+        let bytes = std::fs::read(d.join(format!("{prefix}.hits.f32"))).unwrap();
+        bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect::<Vec<f32>>()
+    };
+    let (closest, any) = (run("closest", false), run("any", true));
+    assert_eq!(closest.len(), any.len());
+    let hits = closest.iter().filter(|t| t.is_finite()).count();
+    // Diffuse rays from a closed-ish mesh: some hit it again, some escape.
+    assert!(hits > 0 && hits < closest.len(), "{hits} of {} rays hit", closest.len());
+    for (i, (c, a)) in closest.iter().zip(&any).enumerate() {
+        assert_eq!(c.is_finite(), a.is_finite(), "ray {i}: closest {c}, any {a}");
+    }
+}
+
 /// `--builds N` times N builds of the scene's structures and reports their median and fastest
 /// (the build benchmark of BENCHMARKS.md §2.1); zero builds is refused.
 #[test]

@@ -190,7 +190,7 @@ fn rays(a: &BenchRaysArgs) -> Result<()> {
         if rays.is_empty() {
             bail!("no {:?} rays: the camera sees nothing of the scene", a.kind);
         }
-        let occlusion = a.kind == RayKind::Shadow;
+        let occlusion = a.kind == RayKind::Shadow || a.any_hit;
         // Primary and shadow rays go 8 consecutive rays at a time (a 4×2 tile, or the shadow
         // rays of one) through the 8-ray queries; the others one at a time.
         let grouped = matches!(a.kind, RayKind::Primary | RayKind::Shadow);
@@ -254,8 +254,9 @@ fn rays(a: &BenchRaysArgs) -> Result<()> {
         let mrays = rays.len() as f64 / med / 1e6;
         let hit_count = hits.iter().filter(|h| h.is_finite()).count();
         out!(
-            "{:?} rays: {} ({} hit), {} threads, median of {} passes {:.2} ms",
+            "{:?} rays{}: {} ({} hit), {} threads, median of {} passes {:.2} ms",
             a.kind,
+            if occlusion { ", any-hit queries" } else { "" },
             rays.len(),
             hit_count,
             rayon::current_num_threads(),
