@@ -5,10 +5,11 @@
 //! Nodes are in pre-order: an inner node's left child is the next node, its right child is
 //! `first`. A leaf holds `count ≥ 1` primitives `prim_indices[first..first + count]`.
 //!
-//! Box test: slabs with an exact reciprocal direction, the far distance scaled by `1 + 2γ(3)`
-//! (Ize, "Robust BVH Ray Traversal", JCGT 2(2), 2013), so that rounding never culls a box the
-//! ray touches. A NaN slab distance (origin on a slab plane of an axis the ray runs parallel to)
-//! is ignored, which keeps that slab open.
+//! Box test: slabs with an exact reciprocal direction (Ize, "Robust BVH Ray Traversal", JCGT
+//! 2(2), 2013), the far distance enlarged so that rounding never culls a box the ray touches:
+//! its reciprocal is scaled by [`FAR_SCALE`] ahead of time ([`BoxRay::inv_far`]), which takes a
+//! multiply off every box test's critical path. A NaN slab distance (origin on a slab plane of
+//! an axis the ray runs parallel to) is ignored, which keeps that slab open.
 
 use crate::primitives::{WoopRay, woop};
 use crate::wide::{Entry, Stack};
@@ -42,14 +43,23 @@ pub struct Bvh2 {
     sah_cost: f32,
 }
 
-/// `1 + 2γ(3)`: Ize 2013's factor on the far slab distance.
-pub(crate) const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
+/// `1 + 2γ(4)`: the factor on the reciprocal of the far slab distances (Ize 2013 scales the far
+/// distance itself by `1 + 2γ(3)`). An entry distance `fl(fl(b − o) · inv)` has three roundings
+/// (the reciprocal's included), so it is at most `t_near (1 + γ(3))`; an exit distance
+/// `fl(fl(b − o) · fl(inv · F))` has four, so it is at least `t_far F (1 − γ(4))`. A box the
+/// ray meets (`0 ≤ t_near ≤ t_far`) passes `entry ≤ exit` whenever `F (1 − γ(4)) ≥ 1 + γ(3)`,
+/// which `F = 1 + 2γ(4)` meets with room to spare (`γ(4) − γ(3) ≈ ε/2 ≫ 2γ(4)²`), also as the
+/// f32 `1 + 2⁻²¹` it rounds to. Scaled this way, the far planes' distances come out of the same
+/// subtract and multiply as the near planes', and no multiply follows the `min` chain.
+pub(crate) const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(4);
 
 /// Per-ray constants of the slab test.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct BoxRay {
     pub org: Vec3,
     pub inv: Vec3,
+    /// `inv · FAR_SCALE`: the far planes' reciprocal.
+    pub inv_far: Vec3,
     /// Per axis: the direction's sign bit is set, so the near slab plane is the box's max.
     pub neg: [bool; 3],
 }
@@ -59,9 +69,11 @@ impl BoxRay {
     pub fn new(ray: &Ray) -> Self {
         // Exact division, no approximate reciprocal (Ize 2013, section 3).
         let d = ray.dir;
+        let inv = Vec3::ONE / d;
         Self {
             org: ray.origin,
-            inv: Vec3::ONE / d,
+            inv,
+            inv_far: inv * FAR_SCALE,
             neg: [d.x.is_sign_negative(), d.y.is_sign_negative(), d.z.is_sign_negative()],
         }
     }
@@ -69,17 +81,14 @@ impl BoxRay {
     /// Entry distance if the ray meets `b` within `[tmin, tmax]`.
     #[inline]
     pub fn hit(&self, b: &Bounds3, tmin: f32, tmax: f32) -> Option<f32> {
-        let t0 = (b.min - self.org) * self.inv;
-        let t1 = (b.max - self.org) * self.inv;
         // Near and far planes by the direction's sign, not by min/max of the two distances, so
         // that a NaN (origin on a plane of an axis the ray is parallel to) survives to the
         // reductions below, where f32::max/min drop it: that slab stays open.
-        let pick = |i: usize| if self.neg[i] { (t1[i], t0[i]) } else { (t0[i], t1[i]) };
-        let (nx, fx) = pick(0);
-        let (ny, fy) = pick(1);
-        let (nz, fz) = pick(2);
-        let tn = tmin.max(nx).max(ny).max(nz);
-        let tf = (f32::INFINITY.min(fx).min(fy).min(fz) * FAR_SCALE).min(tmax);
+        let plane = |a: usize, far: bool| if self.neg[a] ^ far { b.max[a] } else { b.min[a] };
+        let near = |a: usize| (plane(a, false) - self.org[a]) * self.inv[a];
+        let far = |a: usize| (plane(a, true) - self.org[a]) * self.inv_far[a];
+        let tn = tmin.max(near(0)).max(near(1)).max(near(2));
+        let tf = tmax.min(far(0)).min(far(1)).min(far(2));
         (tn <= tf).then_some(tn)
     }
 }

@@ -63,12 +63,13 @@ impl FlatBoxes {
     }
 
     /// Entry distances of every box the ray meets within `[tmin, tmax]` (nearest first when
-    /// `sorted`). The same conservative slab test as the tree (exact reciprocal, far distance
-    /// scaled by 1 + 2γ₃; Ize 2013). `_mm_max_ps(n, t)` / `_mm_min_ps(f, t)` return their second
+    /// `sorted`). The same conservative slab test as the tree (`bvh2::BoxRay::hit`: exact
+    /// reciprocal, the far planes' scaled by `FAR_SCALE`; Ize 2013). `_mm_max_ps(n, t)` / `_mm_min_ps(f, t)` return their second
     /// operand when the first is NaN (a ray parallel to a slab and lying on it): the slab stays open.
     #[inline]
     fn hits(&self, ray: &Ray, tmax: f32, sorted: bool, out: &mut [(f32, u32); FLAT_LIMIT]) -> usize {
         let inv = [1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z];
+        let inv_far = inv.map(|i| i * FAR_SCALE);
         let org = [ray.origin.x, ray.origin.y, ray.origin.z];
         let mut count = 0;
         for g in 0..GROUPS {
@@ -76,16 +77,15 @@ impl FlatBoxes {
                 break;
             }
             let mut tn = Vec4::splat(ray.tmin);
-            let mut tf = Vec4::splat(f32::INFINITY);
+            let mut tf = Vec4::splat(tmax);
             for a in 0..3 {
                 let (lo, hi) =
                     if inv[a] < 0.0 { (self.max[a][g], self.min[a][g]) } else { (self.min[a][g], self.max[a][g]) };
-                let (o, i) = (Vec4::splat(org[a]), Vec4::splat(inv[a]));
-                tn = ((lo - o) * i).max(tn);
-                tf = ((hi - o) * i).min(tf);
+                let o = Vec4::splat(org[a]);
+                tn = ((lo - o) * Vec4::splat(inv[a])).max(tn);
+                tf = ((hi - o) * Vec4::splat(inv_far[a])).min(tf);
             }
-            let far = (tf * FAR_SCALE).min(Vec4::splat(tmax));
-            let mut mask = tn.cmple(far).bitmask();
+            let mut mask = tn.cmple(tf).bitmask();
             let tn = tn.to_array();
             while mask != 0 {
                 let lane = mask.trailing_zeros() as usize;

@@ -12,7 +12,8 @@
 //! the same for every ray, and `fl(x · inv)` is monotone in `inv` (rounding is monotone), so
 //! over the packet's reciprocals `[imin, imax]` (one sign per axis within an octant) it lies
 //! between `fl(x · imin)` and `fl(x · imax)`. The frustum's entry distance is therefore at most
-//! every ray's and its exit at least every ray's (`FAR_SCALE` and `tmax` are monotone too): a
+//! every ray's and its exit at least every ray's (a ray's exit is `fl(fl(b - o) · inv_far)`,
+//! bounded the same way by the packet's far reciprocals `[fmin, fmax]`; `tmax` is monotone too): a
 //! child any ray's own test accepts, the frustum accepts. Leaves run the single-ray box and
 //! triangle tests per ray, and equally near hits resolve by primitive index, so each ray's
 //! answer is the single-ray kernel's bit for bit; visiting more inner nodes than a ray would
@@ -27,7 +28,6 @@ use super::packet::{Lanes, LeafRays, PacketRay, box8, lane_mask, lane_max, lane_
 use super::walk::{closer, order_children};
 use super::{LEAF, PACKET, Stack, TriPacket, WideBvh, avx2, leaf_packets};
 use crate::Hit;
-use crate::bvh2::FAR_SCALE;
 use crate::primitives::{WoopRay, woop};
 use glint_core::Ray;
 use std::arch::x86_64::*;
@@ -40,9 +40,12 @@ use std::arch::x86_64::*;
 pub(super) struct Frustum {
     /// The rays' common origin.
     org: [__m256; 3],
-    /// Per axis: the smallest and largest reciprocal direction.
+    /// Per axis: the smallest and largest reciprocal direction, and of the far planes'
+    /// reciprocals (`PacketRay::inv_far`).
     imin: [__m256; 3],
     imax: [__m256; 3],
+    fmin: [__m256; 3],
+    fmax: [__m256; 3],
     tmin: __m256,
 }
 
@@ -61,25 +64,30 @@ impl Frustum {
             let mut usable = 0xff;
             let mut org = [inf; 3];
             let (mut imin, mut imax) = ([inf; 3], [inf; 3]);
+            let (mut fmin, mut fmax) = ([inf; 3], [inf; 3]);
             for a in 0..3 {
                 // One origin: every lane's bits equal the first ray's.
                 let o = _mm256_permutevar8x32_ps(pr.org[a], first);
                 let eq = _mm256_cmpeq_epi32(_mm256_castps_si256(pr.org[a]), _mm256_castps_si256(o));
                 same &= _mm256_movemask_ps(_mm256_castsi256_ps(eq)) as u32;
                 org[a] = o;
-                // Reciprocals finite and non-zero (|inv| < inf, inv ≠ 0; NaN fails both).
-                let v = pr.inv[a];
-                let finite = _mm256_cmp_ps::<_CMP_LT_OQ>(_mm256_andnot_ps(_mm256_set1_ps(-0.0), v), inf);
-                let nonzero = _mm256_cmp_ps::<_CMP_NEQ_OQ>(v, _mm256_setzero_ps());
+                // Reciprocals finite and non-zero (|inv| < inf, inv ≠ 0; NaN fails both), the
+                // far ones too (finite far implies finite near; non-zero alike).
+                let (v, vf) = (pr.inv[a], pr.inv_far[a]);
+                let finite = _mm256_cmp_ps::<_CMP_LT_OQ>(_mm256_andnot_ps(_mm256_set1_ps(-0.0), vf), inf);
+                let nonzero = _mm256_cmp_ps::<_CMP_NEQ_OQ>(vf, _mm256_setzero_ps());
                 usable &= _mm256_movemask_ps(_mm256_and_ps(finite, nonzero)) as u32;
+                let ninf = _mm256_set1_ps(f32::NEG_INFINITY);
                 imin[a] = _mm256_set1_ps(lane_min(_mm256_blendv_ps(inf, v, on)));
-                imax[a] = _mm256_set1_ps(lane_max(_mm256_blendv_ps(_mm256_set1_ps(f32::NEG_INFINITY), v, on)));
+                imax[a] = _mm256_set1_ps(lane_max(_mm256_blendv_ps(ninf, v, on)));
+                fmin[a] = _mm256_set1_ps(lane_min(_mm256_blendv_ps(inf, vf, on)));
+                fmax[a] = _mm256_set1_ps(lane_max(_mm256_blendv_ps(ninf, vf, on)));
             }
             if same & group != group || usable & group != group {
                 return None;
             }
             let tmin = _mm256_set1_ps(lane_min(_mm256_blendv_ps(inf, pr.tmin, on)));
-            Some(Self { org, imin, imax, tmin })
+            Some(Self { org, imin, imax, fmin, fmax, tmin })
         }
     }
 
@@ -88,10 +96,10 @@ impl Frustum {
     /// than any ray's.
     #[inline(always)]
     fn test(&self, pr: &PacketRay, bounds: &[[f32; 8]; 6], tmax: __m256) -> (u32, __m256) {
-        let (mut tn, mut tf) = (self.tmin, splat(f32::INFINITY));
+        let (mut tn, mut tf) = (self.tmin, tmax);
         for a in 0..3 {
             let near = interval(load(&bounds[pr.near[a]]), self.org[a], self.imin[a], self.imax[a]);
-            let far = interval(load(&bounds[pr.far[a]]), self.org[a], self.imin[a], self.imax[a]);
+            let far = interval(load(&bounds[pr.far[a]]), self.org[a], self.fmin[a], self.fmax[a]);
             // SAFETY: AVX only; inlined into the `avx2,fma` kernel below (see the top of the file).
             unsafe {
                 tn = _mm256_max_ps(tn, _mm256_min_ps(near.0, near.1));
@@ -99,10 +107,7 @@ impl Frustum {
             }
         }
         // SAFETY: as above.
-        unsafe {
-            let tf = _mm256_min_ps(_mm256_mul_ps(tf, _mm256_set1_ps(FAR_SCALE)), tmax);
-            (_mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, tf)) as u32, tn)
-        }
+        unsafe { (_mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, tf)) as u32, tn) }
     }
 }
 

@@ -236,6 +236,8 @@ fn occluded8_avx(bvh: &WideBvh<8>, rays: &[Ray; 8], out: &mut [bool; 8]) {
 pub(super) struct PacketRay {
     pub(super) org: [__m256; 3],
     pub(super) inv: [__m256; 3],
+    /// `inv · FAR_SCALE`, the far planes' reciprocals (`bvh2::BoxRay::inv_far`).
+    pub(super) inv_far: [__m256; 3],
     pub(super) tmin: __m256,
     /// Per axis: index into `WideNode::bounds` of the near and the far plane.
     pub(super) near: [usize; 3],
@@ -266,9 +268,12 @@ impl PacketRay {
         // bit-identical to its scalar `1 / d`.
         // SAFETY: AVX only; inlined into the `avx2,fma` kernels (see the top of the file).
         let inv = dir.map(|d| unsafe { _mm256_div_ps(_mm256_set1_ps(1.0), load(&d)) });
+        // SAFETY: as above.
+        let inv_far = inv.map(|i| unsafe { _mm256_mul_ps(i, _mm256_set1_ps(FAR_SCALE)) });
         Self {
             org: org.map(|v| load(&v)),
             inv,
+            inv_far,
             tmin: load(&tmin),
             near: [neg(0), 2 + neg(1), 4 + neg(2)],
             far: [1 - neg(0), 3 - neg(1), 5 - neg(2)],
@@ -297,16 +302,12 @@ pub(super) fn store(v: __m256) -> [f32; 8] {
 pub(super) fn box8(bounds: &[[f32; 8]; 6], c: usize, r: &PacketRay, tmax: __m256) -> (u32, __m256) {
     // SAFETY: AVX only; inlined into the `avx2,fma` kernels below (see the top of the file).
     unsafe {
-        let slab = |a: usize, k: usize| _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(bounds[k][c]), r.org[a]), r.inv[a]);
-        let tn = _mm256_max_ps(
-            slab(0, r.near[0]),
-            _mm256_max_ps(slab(1, r.near[1]), _mm256_max_ps(slab(2, r.near[2]), r.tmin)),
-        );
-        let tf = _mm256_min_ps(
-            slab(0, r.far[0]),
-            _mm256_min_ps(slab(1, r.far[1]), _mm256_min_ps(slab(2, r.far[2]), _mm256_set1_ps(f32::INFINITY))),
-        );
-        let tf = _mm256_min_ps(_mm256_mul_ps(tf, _mm256_set1_ps(FAR_SCALE)), tmax);
+        let slab =
+            |k: usize, o: __m256, inv: __m256| _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(bounds[k][c]), o), inv);
+        let near = |a: usize| slab(r.near[a], r.org[a], r.inv[a]);
+        let far = |a: usize| slab(r.far[a], r.org[a], r.inv_far[a]);
+        let tn = _mm256_max_ps(near(0), _mm256_max_ps(near(1), _mm256_max_ps(near(2), r.tmin)));
+        let tf = _mm256_min_ps(far(0), _mm256_min_ps(far(1), _mm256_min_ps(far(2), tmax)));
         (_mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, tf)) as u32, tn)
     }
 }
