@@ -203,7 +203,12 @@ fn scaled_lanes(out: &mut [Rgb; LANES], seen: [Rgb; LANES], intensity: f32, acti
 
 #[inline]
 fn gradient(dir: Vec3, zenith: Rgb, horizon: Rgb, ground: Rgb) -> Rgb {
-    let y = dir.normalize_or(Vec3::Y).y;
+    gradient_at(dir.normalize_or(Vec3::Y).y, zenith, horizon, ground)
+}
+
+/// A gradient sky's radiance at the height `y` (the up component of a unit direction).
+#[inline]
+pub(crate) fn gradient_at(y: f32, zenith: Rgb, horizon: Rgb, ground: Rgb) -> Rgb {
     if y >= 0.0 { horizon.lerp(zenith, y.min(1.0)) } else { ground }
 }
 
