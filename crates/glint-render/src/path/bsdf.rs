@@ -264,7 +264,7 @@ impl Bsdf {
     #[inline]
     fn glossy_lobe(&self, wi: Vec3) -> f32 {
         let c = self.mirror_dir.dot(wi);
-        if c <= 0.0 { 0.0 } else { c.powf(self.exponent) }
+        if c <= 0.0 { 0.0 } else { super::pow::pow(c, self.exponent) }
     }
 
     /// The non-delta BSDF times the cosine, split in (diffuse part demodulated = cos/π,
@@ -278,7 +278,8 @@ impl Bsdf {
     }
 
     /// `(eval_cos(wi), pdf(wi))`, the same bits as the two calls, with a Phong glossy lobe's
-    /// `powf` evaluated once for both (light samples weighed by MIS, BSDF samples).
+    /// `cosⁿ α` ([`super::pow`]) evaluated once for both (light samples weighed by MIS, BSDF
+    /// samples).
     #[inline]
     pub fn eval_cos_and_pdf(&self, wi: Vec3) -> (Rgb, f32) {
         if let Some(p) = &self.physical {
@@ -320,7 +321,7 @@ impl Bsdf {
         if let Some(p) = &self.physical {
             return p.eval(wi) - self.diffuse * p.eval_diffuse(wi);
         }
-        // A Phong material without a glossy lobe (every diffuse surface) skips the lobe's `powf`.
+        // A Phong material without a glossy lobe (every diffuse surface) skips the lobe's power.
         if self.glossy <= 0.0 {
             return Rgb::ZERO;
         }
@@ -363,7 +364,7 @@ impl Bsdf {
     }
 
     fn sample_glossy(&self, u: Vec2) -> Vec3 {
-        let cos_a = u.x.powf(1.0 / (self.exponent + 1.0));
+        let cos_a = super::pow::pow(u.x, 1.0 / (self.exponent + 1.0));
         let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
         let phi = TAU * u.y;
         Frame::from_z(self.mirror_dir).to_world(Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a))

@@ -22,6 +22,7 @@ mod integrator;
 mod lights;
 mod lookup;
 pub mod models;
+mod pow;
 mod progressive;
 mod shading;
 mod splat;

@@ -23,8 +23,9 @@
 //!
 //! Every lane performs the scalar code's float operations in its order (no fused
 //! multiply-add; `glint_accel::lanes` guarantees each operation's bits on both instruction
-//! sets); the glossy lobe's `powf` and the Phong direction's sine and cosine are libm's, lane
-//! by lane, as the scalar code calls them. So a lane gives the bits of
+//! sets); the glossy lobe's power is `path::pow`'s lane code (the scalar code calls one lane
+//! of it), and the Phong direction's sine and cosine are libm's, lane by lane, as the scalar
+//! code calls them. So a lane gives the bits of
 //! `Wavefront::continue_tail` (or `guide_vertex`) on the same vertex: the `WavefrontScalar`
 //! kernel, which sends the same queue through that scalar code, is the oracle (tests/path.rs
 //! compares the two pictures bit for bit).
@@ -32,6 +33,7 @@
 use super::{Path, TailLeg};
 use crate::path::bsdf::{Bsdf, PhongParts};
 use crate::path::lights::{LightSet, Pick, SHADOW_SHORT, SUNS};
+use crate::path::pow::pow8;
 use crate::world::{SurfaceHit, World};
 use glint_accel::batch::RayOrigins8;
 use glint_accel::lanes::{F8, Isa, LANES, LaneKernel, M8, V8, dispatch};
@@ -505,17 +507,11 @@ fn max_element<I: Isa>(v: V8<I>) -> F8<I> {
 }
 
 /// The glossy lobe's `cos^n α` toward `wi` in the lanes `need` (0 elsewhere): `Bsdf`'s
-/// `glossy_lobe`, libm's `powf` lane by lane.
+/// `glossy_lobe`, the power in lanes ([`pow8`]: the scalar `pow`'s bits).
 #[inline(always)]
 fn glossy_lobe<I: Isa>(b: &Lobes<I>, wi: V8<I>, need: M8<I>) -> F8<I> {
     let c = b.mirror_dir.dot(wi);
-    let mut lobe = F8::zero();
-    for i in 0..LANES {
-        if need.lane(i) {
-            lobe[i] = if c[i] <= 0.0 { 0.0 } else { c[i].powf(b.exponent[i]) };
-        }
-    }
-    lobe
+    F8::select(need & c.gt(F8::zero()), pow8(c, b.exponent), F8::zero())
 }
 
 /// The BSDF toward a direction ([`Bsdf::eval_cos_and_pdf`]).
@@ -554,7 +550,7 @@ fn eval<I: Isa>(b: &Lobes<I>, wi: V8<I>) -> Eval<I> {
 }
 
 /// The Phong lobe's direction about the mirror direction for the numbers `u` in the lanes
-/// `need` (`Bsdf`'s `sample_glossy`: libm's `powf`, `cos` and `sin` lane by lane).
+/// `need` (`Bsdf`'s `sample_glossy`: the power in lanes, libm's `cos` and `sin` lane by lane).
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // lane `i` of four lane arrays
 fn glossy_direction<I: Isa>(b: &Lobes<I>, u: [F8<I>; 2], need: M8<I>) -> V8<I> {
@@ -562,9 +558,10 @@ fn glossy_direction<I: Isa>(b: &Lobes<I>, u: [F8<I>; 2], need: M8<I>) -> V8<I> {
     if !need.any() {
         return local;
     }
+    let cos_a = pow8(u[0], F8::one() / (b.exponent + F8::one()));
     for i in 0..LANES {
         if need.lane(i) {
-            let cos_a = u[0][i].powf(1.0 / (b.exponent[i] + 1.0));
+            let cos_a = cos_a[i];
             let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
             let phi = TAU * u[1][i];
             local.set(i, Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a));
