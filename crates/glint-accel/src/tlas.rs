@@ -64,8 +64,9 @@ impl FlatBoxes {
 
     /// Entry distances of every box the ray meets within `[tmin, tmax]` (nearest first when
     /// `sorted`). The same conservative slab test as the tree (`bvh2::BoxRay::hit`: exact
-    /// reciprocal, the far planes' scaled by `FAR_SCALE`; Ize 2013). `_mm_max_ps(n, t)` / `_mm_min_ps(f, t)` return their second
-    /// operand when the first is NaN (a ray parallel to a slab and lying on it): the slab stays open.
+    /// reciprocal, the far planes' scaled by `FAR_SCALE`; Ize 2013). `_mm_max_ps(n, t)` /
+    /// `_mm_min_ps(f, t)` return their second operand when the first is NaN (a ray parallel to
+    /// a slab and lying on it): the slab stays open.
     #[inline]
     fn hits(&self, ray: &Ray, tmax: f32, sorted: bool, out: &mut [(f32, u32); FLAT_LIMIT]) -> usize {
         let inv = [1.0 / ray.dir.x, 1.0 / ray.dir.y, 1.0 / ray.dir.z];
