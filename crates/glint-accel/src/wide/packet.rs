@@ -491,17 +491,19 @@ fn any_packet(bvh: &WideBvh<8>, rays: &[Ray; 8], group: u32, oct: u32) -> u32 {
     loop {
         if cur & LEAF == 0 {
             let node = &bvh.nodes[cur as usize];
+            // Slots from the last, so that the children met are visited in slot order (largest
+            // box first, `WideBvh::from_bvh2`): the lowest goes on, the others pop after it in
+            // their order.
             let mut first = None;
-            for c in 0..8 {
+            for c in (0..8).rev() {
                 if node.child[c] == EMPTY_SLOT {
                     continue;
                 }
                 let m = box8(&node.bounds, c, &pr, tmax).0 & active;
-                if m != 0 {
-                    match first {
-                        None => first = Some((node.child[c], m)),
-                        Some(_) => stack.push((node.child[c], m)),
-                    }
+                if m != 0
+                    && let Some(later) = first.replace((node.child[c], m))
+                {
+                    stack.push(later);
                 }
             }
             if let Some((c, m)) = first {

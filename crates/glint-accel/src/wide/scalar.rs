@@ -59,13 +59,14 @@ impl<const N: usize> Kernel<N> for ScalarKernel {
 
     #[inline(always)]
     fn any_child(r: &ScalarNodeRay, node: &WideNode<N>, tmax: f32, stack: &mut Stack<u32>) -> Option<u32> {
+        // Slots from the last: the children met are visited in slot order (as the SIMD kernel
+        // visits them).
         let mut first = None;
-        for slot in 0..N {
-            if r.boxes.hit(&node.slot_bounds(slot), r.tmin, tmax).is_some() {
-                match first {
-                    None => first = Some(node.child[slot]),
-                    Some(_) => stack.push(node.child[slot]),
-                }
+        for slot in (0..N).rev() {
+            if r.boxes.hit(&node.slot_bounds(slot), r.tmin, tmax).is_some()
+                && let Some(later) = first.replace(node.child[slot])
+            {
+                stack.push(later);
             }
         }
         first
