@@ -161,6 +161,15 @@ impl SampleStream {
         glam::Vec2::new(a, self.next_1d())
     }
 
+    /// Steps over the next `n` dimensions without computing them: the stream then reads
+    /// what it would after `n` one-dimensional draws (or `n / 2` two-dimensional ones), for a
+    /// caller that knows it will not use those numbers (a Sobol draw costs a few dozen
+    /// integer operations).
+    #[inline]
+    pub fn skip(&mut self, n: u64) {
+        self.dimension += n;
+    }
+
     /// Jump to dimension `d` (so each use of randomness can own fixed dimensions).
     pub fn at_dimension(mut self, d: u64) -> Self {
         self.dimension = d;

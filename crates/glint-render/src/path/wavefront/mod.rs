@@ -321,9 +321,10 @@ impl<'a> Wavefront<'a> {
             None => params.max_bounces,
         };
         let last_chain = params.max_depth.map_or(params.max_chain, |l| l.saturating_sub(1));
+        // The chain's lobe choice and direction: drawn only where a BSDF with delta lobes reads
+        // them (a vertex without them steps over their dimensions: two Sobol draws a path).
         let mut stream = path.stream;
-        let u_lobe = stream.next_1d();
-        let u = stream.next_2d();
+        stream.skip(3);
         if let Some(parts) = phong {
             // Without delta lobes a BSDF is never delta-dominant.
             let albedo = leg.throughput * parts.diffuse;
@@ -336,6 +337,10 @@ impl<'a> Wavefront<'a> {
             return;
         }
         let Some((bsdf, _)) = shaded.as_ref() else { return };
+        let (u_lobe, u) = {
+            let mut s = path.stream;
+            (s.next_1d(), s.next_2d())
+        };
         let with_delta = if bsdf.is_delta_dominant() {
             if u_lobe >= bsdf.p_non_delta() {
                 // Through the mirror or the glass, while the chain may grow.

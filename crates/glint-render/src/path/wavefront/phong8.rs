@@ -112,7 +112,7 @@ impl PhongVertex {
         }
         let (mut bounce, mut rr) = (None, None);
         if leg.bounce < leg.max_bounces + u32::from(budget.mitsuba) {
-            let u_lobe = stream.next_1d();
+            let u_lobe = lobe_number(&parts, &mut stream);
             bounce = Some((u_lobe, stream.next_2d()));
             if leg.bounce + 1 > budget.rr_start {
                 rr = Some(stream.next_1d());
@@ -142,7 +142,7 @@ impl PhongVertex {
         let light = Some((u_choice, stream.next_2d()));
         let mut bounce = None;
         if guide.trace && (guide.bounces > 0 || mitsuba) {
-            let u_lobe = stream.next_1d();
+            let u_lobe = lobe_number(&parts, &mut stream);
             bounce = Some((u_lobe, stream.next_2d()));
         }
         let (kind, dimension) = (Kind::Guide(guide), stream.dimension());
@@ -157,6 +157,20 @@ impl PhongVertex {
     /// The BSDF the scalar code shades this vertex with.
     pub fn bsdf(&self) -> Bsdf {
         Bsdf::from_phong(&self.parts)
+    }
+}
+
+/// The lobe choice's number of a vertex of BSDF `parts`: drawn, unless the BSDF is a lone
+/// Lambertian lobe (chosen with probability 1: every number in [0, 1) picks it, in the lanes
+/// as in `Bsdf::sample` and `Bsdf::sample_non_delta`), whose dimension is stepped over and 0
+/// stands in (a Sobol draw saved at most vertices of an area-lit scene of diffuse walls).
+#[inline]
+fn lobe_number(parts: &PhongParts, stream: &mut SampleStream) -> f32 {
+    if parts.p_diffuse == 1.0 && parts.p_glossy == 0.0 {
+        stream.skip(1);
+        0.0
+    } else {
+        stream.next_1d()
     }
 }
 
