@@ -269,6 +269,25 @@ mod tests {
     }
 
     #[test]
+    fn skipping_dimensions_reads_what_the_draws_would_have_left() {
+        for sampler in [Sampler::Sobol, Sampler::Independent] {
+            for n in 0..6u64 {
+                let (mut drawn, mut skipped) = (sampler.stream(9, 5, 1), sampler.stream(9, 5, 1));
+                for _ in 0..n {
+                    drawn.next_1d();
+                }
+                skipped.skip(n);
+                assert_eq!(skipped.dimension(), drawn.dimension());
+                // Across the low-discrepancy dimensions' end, 1-D and 2-D draws alike.
+                for _ in 0..12 {
+                    assert_eq!(skipped.next_1d().to_bits(), drawn.next_1d().to_bits(), "{sampler:?}, n {n}");
+                    assert_eq!(skipped.next_2d(), drawn.next_2d(), "{sampler:?}, n {n}");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn unit_floats_are_in_range_and_roughly_uniform() {
         let n = 100_000;
         let mut buckets = [0u32; 10];
