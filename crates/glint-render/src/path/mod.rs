@@ -361,10 +361,15 @@ impl Frame {
     #[inline]
     fn camera_ray(&self, x: usize, y: usize, sample: u64, centre: bool) -> (Vec2, Ray, SampleStream) {
         let mut stream = self.sampler.stream(self.image.pixel_id(x, y), sample, self.seed);
-        // The pixel sample is drawn even for the centre ray, so that every sample reads the
-        // same dimensions for the same purpose (stratified across the pixel's samples).
-        let jitter = stream.next_2d();
-        let offset = if centre && self.centre_first { Vec2::splat(0.5) } else { self.pixel.position(jitter) };
+        // The pixel sample's dimensions are the centre ray's too (stepped over, not drawn), so
+        // that every sample reads the same dimensions for the same purpose (stratified across
+        // the pixel's samples).
+        let offset = if centre && self.centre_first {
+            stream.skip(2);
+            Vec2::splat(0.5)
+        } else {
+            self.pixel.position(stream.next_2d())
+        };
         let on_film = match self.image.film_origin() {
             (0, 0) => Vec2::new(x as f32, y as f32) + offset,
             (fx, fy) => Vec2::new((fx + x) as f32, (fy + y) as f32) + offset,
