@@ -4,7 +4,7 @@
 
 use crate::build::{BuildOptions, Width};
 use crate::bvh2::Bvh2;
-use crate::wide::{Bvh4, Bvh8, Isa};
+use crate::wide::{Bvh4, Bvh8, Isa, one_node};
 use crate::{BvhStats, Hit};
 use glint_core::{Bounds3, Ray, Vec3};
 use std::time::Instant;
@@ -28,12 +28,24 @@ impl MeshBvh {
     /// index or a non-finite vertex are never hit (also after a refit that makes them valid).
     pub fn build(positions: &[Vec3], triangles: &[[u32; 3]], options: &BuildOptions) -> MeshBvh {
         let start = Instant::now();
-        let bvh2 = Bvh2::build(positions, triangles, options);
+        let mut bvh2 = Bvh2::build(positions, triangles, options);
         let isa = Isa::detect();
         let width = match options.width {
             Width::Auto => Width::preferred(isa),
             w => w,
         };
+        let n = if width == Width::Eight { 8 } else { 4 };
+        // A tree of one node: its leaves as the walks' cost would choose them
+        // (`wide::one_node`), where that costs less than the builder's.
+        if bvh2.leaf_count() > 1 && bvh2.leaf_count() <= n {
+            let fine_options = BuildOptions { max_leaf_size: 1, traversal_cost: 0.0, ..options.clone() };
+            let fine = Bvh2::build(positions, triangles, &fine_options);
+            if let Some((cut, cost)) = one_node::best_cut(&fine, n, options.traversal_cost, options.intersection_cost)
+                && cost < one_node::leaf_cost(&bvh2)
+            {
+                bvh2 = cut;
+            }
+        }
         let layout = match width {
             Width::Eight => Layout::Eight(Bvh8::from_bvh2(&bvh2, positions, triangles)),
             _ => Layout::Four(Bvh4::from_bvh2(&bvh2, positions, triangles)),

@@ -25,6 +25,7 @@ mod avx2;
 mod dispatch;
 #[cfg(target_arch = "x86_64")]
 mod frustum;
+pub(crate) mod one_node;
 #[cfg(target_arch = "x86_64")]
 mod packet;
 mod scalar;
