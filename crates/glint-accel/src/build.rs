@@ -452,11 +452,15 @@ pub(crate) fn build_bvh2(boxes: &[Bounds3], options: &BuildOptions) -> Bvh2 {
 /// index out of range or a vertex that is not finite are left out. The same tree as
 /// `build_bvh2` over their boxes, without a frame of boxes in between.
 pub(crate) fn build_bvh2_triangles(positions: &[Vec3], triangles: &[[u32; 3]], options: &BuildOptions) -> Bvh2 {
-    let bounds = |i: usize| match crate::fetch_triangle(positions, triangles, i as u32) {
+    build_from_refs(prim_refs(triangles.len(), |i| triangle_box(positions, triangles, i)), options)
+}
+
+/// The box of triangle `i`; empty where an index is out of range.
+pub(crate) fn triangle_box(positions: &[Vec3], triangles: &[[u32; 3]], i: usize) -> Bounds3 {
+    match crate::fetch_triangle(positions, triangles, i as u32) {
         Some([a, b, c]) => Bounds3::from_points([a, b, c].map(Vec3::from_array)),
         None => Bounds3::EMPTY,
-    };
-    build_from_refs(prim_refs(triangles.len(), bounds), options)
+    }
 }
 
 /// One reference per primitive whose box is neither empty nor non-finite, in index order. Made

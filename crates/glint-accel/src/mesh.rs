@@ -40,7 +40,10 @@ impl MeshBvh {
         if bvh2.leaf_count() > 1 && bvh2.leaf_count() <= n {
             let fine_options = BuildOptions { max_leaf_size: 1, traversal_cost: 0.0, ..options.clone() };
             let fine = Bvh2::build(positions, triangles, &fine_options);
-            if let Some((cut, cost)) = one_node::best_cut(&fine, n, options.traversal_cost, options.intersection_cost)
+            let boxes: Vec<Bounds3> =
+                (0..triangles.len()).map(|i| crate::build::triangle_box(positions, triangles, i)).collect();
+            if let Some((cut, cost)) =
+                one_node::best_leaves(&fine, &boxes, n, options.traversal_cost, options.intersection_cost)
                 && cost < one_node::leaf_cost(&bvh2)
             {
                 bvh2 = cut;
