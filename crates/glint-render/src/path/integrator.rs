@@ -249,6 +249,24 @@ pub(super) fn phong_parts_at(world: &World, hit: &SurfaceHit, dir: Vec3) -> Opti
         ks /= total;
     }
     let diffuse = phong * albedo * kd;
+    if ks == 0.0 {
+        // No glossy lobe (a matte material): the probabilities below without their divisions,
+        // whose latency was most of this function on diffuse walls. Bit for bit: the glossy
+        // weight `ks · sum / 3` is `ks` itself (a zero of its sign, the sum being finite and
+        // not negative), the sum of the weights is `wd`, and `wd / wd` is 1 where `wd` is
+        // positive and finite (elsewhere the quotients fail the tests below: no parts).
+        let wd = luminance(diffuse);
+        return (wd > 0.0 && wd.is_finite()).then_some(PhongParts {
+            diffuse,
+            normal: ns,
+            geometric: ng,
+            glossy: ks,
+            exponent: m.shininess.max(0.0),
+            mirror_dir: reflect(-wo, ns),
+            p_diffuse: 1.0,
+            p_glossy: ks,
+        });
+    }
     let glossy = ks * phong.element_sum() / 3.0;
     let (wd, wg) = (luminance(diffuse), glossy);
     let sum = wd + wg + luminance(Rgb::ZERO) + luminance(Rgb::ZERO);
