@@ -108,22 +108,6 @@ impl SampleStream {
         Self { scramble, index_reversed: (sample as u32).reverse_bits(), sobol: true, ..Self::new(pixel, sample, seed) }
     }
 
-    /// The seeds of the draw at the current dimension: the index shuffle's, then one per
-    /// coordinate (the third a multiplicative hash of the 64-bit one: no second mix).
-    #[inline]
-    fn draw_seeds(&self) -> (u32, u32, u32) {
-        // The per-pixel seed is mixed already: one multiply spreads the dimension over it.
-        let h = (self.scramble ^ self.dimension).wrapping_mul(0x9e37_79b9_7f4a_7c15);
-        (h as u32 ^ (h >> 29) as u32, (h >> 32) as u32, (h.wrapping_mul(0xd1b5_4a32_d192_ed03) >> 32) as u32)
-    }
-
-    /// The shuffled sample index of the draw, bits reversed (`j` below): Owen's scramble of
-    /// the index (`nested_uniform_scramble(index, seed)` is `j.reverse_bits()`).
-    #[inline]
-    fn shuffled_reversed(&self, seed: u32) -> u32 {
-        lk_permutation(self.index_reversed, seed)
-    }
-
     #[inline]
     fn ld(&self) -> bool {
         self.sobol && self.dimension < SOBOL_DIMENSIONS
@@ -133,32 +117,42 @@ impl SampleStream {
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
         if self.ld() {
-            let (shuffle, sx, _) = self.draw_seeds();
+            let seeds = sobol_seeds(self.scramble, self.dimension);
             self.dimension += 1;
-            // Sobol's first dimension is the reversed index, `j` itself.
-            let j = self.shuffled_reversed(shuffle);
-            return unit_float32(nested_uniform_scramble(j, sx));
+            return unit_float32(sobol_draw(self.index_reversed, seeds).0);
         }
-        let h = mix64(self.base ^ self.dimension.wrapping_mul(0x9e37_79b9_7f4a_7c15));
+        let u = self.independent_at(self.dimension);
         self.dimension += 1;
-        unit_float(h)
+        u
     }
 
     #[inline]
     pub fn next_2d(&mut self) -> glam::Vec2 {
         if self.ld() {
-            let (shuffle, sx, sy) = self.draw_seeds();
+            let seeds = sobol_seeds(self.scramble, self.dimension);
             self.dimension += 2;
-            let j = self.shuffled_reversed(shuffle);
-            // Scrambles in the reversed domain (`nested_uniform_scramble(v, s)` is
-            // `lk_permutation(v.reverse_bits(), s).reverse_bits()`): Sobol's first coordinate
-            // reversed is the shuffled index itself, its second reversed is a table of `j`.
-            let x = lk_permutation(j.reverse_bits(), sx).reverse_bits();
-            let y = lk_permutation(sobol_second_reversed(j), sy).reverse_bits();
+            let (x, y) = sobol_draw(self.index_reversed, seeds);
             return glam::Vec2::new(unit_float32(x), unit_float32(y));
         }
         let a = self.next_1d();
         glam::Vec2::new(a, self.next_1d())
+    }
+
+    /// Dimension `d` of the independent stream (what [`SampleStream::next_1d`] reads there
+    /// when it is not low discrepancy).
+    #[inline]
+    #[must_use]
+    pub fn independent_at(&self, d: u64) -> f32 {
+        unit_float(mix64(self.base ^ d.wrapping_mul(0x9e37_79b9_7f4a_7c15)))
+    }
+
+    /// A low-discrepancy stream's per-pixel scramble seed and bit-reversed sample index, for
+    /// a caller that draws many streams' numbers at once ([`sobol_seeds`], [`sobol_draw`]);
+    /// `None` for an independent stream. A draw at dimension `d` is low discrepancy where
+    /// `d < SOBOL_DIMENSIONS`.
+    #[must_use]
+    pub fn sobol_state(&self) -> Option<(u64, u32)> {
+        self.sobol.then_some((self.scramble, self.index_reversed))
     }
 
     /// Steps over the next `n` dimensions without computing them: the stream then reads
@@ -184,9 +178,37 @@ impl SampleStream {
     }
 }
 
+/// The seeds of a low-discrepancy draw at dimension `dimension` of a pixel whose scramble
+/// seed is `scramble`: the index shuffle's, then one per coordinate (the third a
+/// multiplicative hash of the 64-bit one: no second mix).
+#[inline]
+#[must_use]
+pub fn sobol_seeds(scramble: u64, dimension: u64) -> (u32, u32, u32) {
+    // The per-pixel seed is mixed already: one multiply spreads the dimension over it.
+    let h = (scramble ^ dimension).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    (h as u32 ^ (h >> 29) as u32, (h >> 32) as u32, (h.wrapping_mul(0xd1b5_4a32_d192_ed03) >> 32) as u32)
+}
+
+/// The two coordinates (32-bit fractions) of the point of sample `index_reversed.reverse_bits()`
+/// of the draw whose seeds are `(shuffle, sx, sy)` ([`sobol_seeds`]): the index shuffled by
+/// Owen's scramble (`j` is the shuffled index reversed: `nested_uniform_scramble(index,
+/// shuffle)` is `j.reverse_bits()`), then the first two Sobol dimensions at it, each
+/// Owen-scrambled. The scrambles work in the reversed domain (`nested_uniform_scramble(v, s)`
+/// is `lk_permutation(v.reverse_bits(), s).reverse_bits()`): Sobol's first coordinate reversed
+/// is `j`, its second reversed is [`sobol_second_of_reversed`] of `j`'s reversal. A 1-D draw
+/// is the first coordinate. The lanes of `path::wavefront` compute the same operations.
+#[inline]
+#[must_use]
+pub fn sobol_draw(index_reversed: u32, (shuffle, sx, sy): (u32, u32, u32)) -> (u32, u32) {
+    let j = lk_permutation(index_reversed, shuffle);
+    let i = j.reverse_bits();
+    (lk_permutation(i, sx).reverse_bits(), lk_permutation(sobol_second_of_reversed(i), sy).reverse_bits())
+}
+
 /// A uniform float in [0, 1) from the top 24 bits of a 32-bit value.
 #[inline]
-fn unit_float32(x: u32) -> f32 {
+#[must_use]
+pub fn unit_float32(x: u32) -> f32 {
     (x >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
 }
 
@@ -196,7 +218,8 @@ fn unit_float32(x: u32) -> f32 {
 /// bits it is an Owen scramble: each bit of the result is flipped by a hash of the bits above
 /// it.
 #[inline]
-fn lk_permutation(mut x: u32, seed: u32) -> u32 {
+#[must_use]
+pub fn lk_permutation(mut x: u32, seed: u32) -> u32 {
     x ^= x.wrapping_mul(0x3d20_adea);
     x = x.wrapping_add(seed);
     x = x.wrapping_mul((seed >> 16) | 1);
@@ -205,56 +228,23 @@ fn lk_permutation(mut x: u32, seed: u32) -> u32 {
     x
 }
 
-/// Owen's nested uniform scramble of a 32-bit fraction (Burley 2020, section 3).
+/// Sobol's second dimension at index `i`, bits reversed: `sobol_second(i).reverse_bits()`,
+/// where `sobol_second` is the sequence's second dimension (primitive polynomial `x + 1`:
+/// direction numbers `v_0 = 2^31`, `v_k = v_{k-1} ^ (v_{k-1} >> 1)`, so `v_k` reversed holds
+/// the binomial coefficients `C(k, t) mod 2` at bits `t`, the coefficients of `(1 + x)^k`).
+/// Read as a polynomial over GF(2) (bit `k` the coefficient of `x^k`), the result is `i(x +
+/// 1)`: the Taylor shift, made by one masked shift and xor per level of halves (`f(x + 1) =
+/// f_0(x + 1) + f_1(x + 1) + x^s f_1(x + 1)` for `f = f_0 + x^s f_1`, the halves first).
 #[inline]
-fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
-    lk_permutation(x.reverse_bits(), seed).reverse_bits()
+#[must_use]
+pub fn sobol_second_of_reversed(i: u32) -> u32 {
+    let mut f = i;
+    f ^= (f >> 1) & 0x5555_5555;
+    f ^= (f >> 2) & 0x3333_3333;
+    f ^= (f >> 4) & 0x0f0f_0f0f;
+    f ^= (f >> 8) & 0x00ff_00ff;
+    f ^ (f >> 16)
 }
-
-/// Sobol's second dimension in the reversed domain: `sobol_second(j.reverse_bits())
-/// .reverse_bits()`, where `sobol_second` is the sequence's second dimension (primitive
-/// polynomial `x + 1`: direction numbers `v_0 = 2^31`, `v_k = v_{k-1} ^ (v_{k-1} >> 1)`). The
-/// generator matrix is linear over GF(2), so is this: one table lookup per byte of `j`.
-#[inline]
-fn sobol_second_reversed(j: u32) -> u32 {
-    let b = j.to_le_bytes();
-    SOBOL_SECOND_REVERSED[0][b[0] as usize]
-        ^ SOBOL_SECOND_REVERSED[1][b[1] as usize]
-        ^ SOBOL_SECOND_REVERSED[2][b[2] as usize]
-        ^ SOBOL_SECOND_REVERSED[3][b[3] as usize]
-}
-
-/// `SOBOL_SECOND_REVERSED[k][b]`: the reversed image of byte value `b` at byte `k` of `j`:
-/// bit `m` of `j` is bit `31 - m` of the index, whose direction number `v_{31-m}` is stored
-/// reversed.
-static SOBOL_SECOND_REVERSED: [[u32; 256]; 4] = {
-    let mut v = [0u32; 32];
-    v[0] = 1 << 31;
-    let mut i = 1;
-    while i < 32 {
-        v[i] = v[i - 1] ^ (v[i - 1] >> 1);
-        i += 1;
-    }
-    let mut t = [[0u32; 256]; 4];
-    let mut k = 0;
-    while k < 4 {
-        let mut b = 0;
-        while b < 256 {
-            let mut x = 0u32;
-            let mut m = 0;
-            while m < 8 {
-                if b >> m & 1 == 1 {
-                    x ^= v[31 - (8 * k + m)].reverse_bits();
-                }
-                m += 1;
-            }
-            t[k][b] = x;
-            b += 1;
-        }
-        k += 1;
-    }
-    t
-};
 
 #[cfg(test)]
 mod tests {
@@ -315,12 +305,16 @@ mod tests {
     }
 
     #[test]
-    fn the_reversed_table_is_sobols_second_dimension_reversed() {
+    fn the_taylor_shift_is_sobols_second_dimension_reversed() {
         let mut h = 1u64;
         for k in 0..20_000u32 {
             h = mix64(h);
-            let j = if k < 4096 { k } else { h as u32 };
-            assert_eq!(sobol_second_reversed(j), sobol_second_by_bits(j.reverse_bits()).reverse_bits(), "j = {j:#x}");
+            let i = if k < 4096 { k } else { h as u32 };
+            assert_eq!(sobol_second_of_reversed(i), sobol_second_by_bits(i).reverse_bits(), "i = {i:#x}");
+        }
+        // Both maps are linear over GF(2): equal on every basis vector, equal everywhere.
+        for b in 0..32 {
+            assert_eq!(sobol_second_of_reversed(1 << b), sobol_second_by_bits(1 << b).reverse_bits());
         }
         // The unscrambled sequence's first points (index order): 0, 1/2, 3/4, 1/4, 5/8.
         let first: Vec<u32> = (0..5).map(|i| sobol_second_by_bits(i) >> 29).collect();

@@ -157,6 +157,14 @@ impl Isa for Avx2 {
         unsafe { _mm256_or_si256(a, b) }
     }
     #[inline(always)]
+    fn u_xor(a: __m256i, b: __m256i) -> __m256i {
+        unsafe { _mm256_xor_si256(a, b) }
+    }
+    #[inline(always)]
+    fn u_mul(a: __m256i, b: __m256i) -> __m256i {
+        unsafe { _mm256_mullo_epi32(a, b) }
+    }
+    #[inline(always)]
     fn u_shr(a: __m256i, n: u32) -> __m256i {
         unsafe { _mm256_srl_epi32(a, _mm_cvtsi32_si128(n as i32)) }
     }

@@ -66,6 +66,9 @@ pub trait Isa: Copy + Send + Sync + std::fmt::Debug + Default + PartialEq + 'sta
     fn u_sub(a: Self::U, b: Self::U) -> Self::U;
     fn u_and(a: Self::U, b: Self::U) -> Self::U;
     fn u_or(a: Self::U, b: Self::U) -> Self::U;
+    fn u_xor(a: Self::U, b: Self::U) -> Self::U;
+    /// The low 32 bits of the product (`u32::wrapping_mul`).
+    fn u_mul(a: Self::U, b: Self::U) -> Self::U;
     fn u_shr(a: Self::U, n: u32) -> Self::U;
     fn u_shl(a: Self::U, n: u32) -> Self::U;
     fn u_eq(a: Self::U, b: Self::U) -> Self::M;
@@ -463,6 +466,37 @@ impl<I: Isa> U8x<I> {
         U8x(I::u_or(self.0, I::u_splat(bits)))
     }
 
+    #[inline(always)]
+    #[must_use]
+    pub fn xor(self, o: U8x<I>) -> U8x<I> {
+        U8x(I::u_xor(self.0, o.0))
+    }
+
+    /// Lane by lane `u32::wrapping_mul`.
+    #[inline(always)]
+    #[must_use]
+    pub fn wrapping_mul(self, o: U8x<I>) -> U8x<I> {
+        U8x(I::u_mul(self.0, o.0))
+    }
+
+    /// `self | o`, lane by lane.
+    #[inline(always)]
+    #[must_use]
+    pub fn or_lanes(self, o: U8x<I>) -> U8x<I> {
+        U8x(I::u_or(self.0, o.0))
+    }
+
+    /// Lane by lane `u32::reverse_bits` (halves, bytes, nibbles, pairs, bits swapped).
+    #[inline(always)]
+    #[must_use]
+    pub fn reverse_bits(self) -> U8x<I> {
+        let x = self.shift_right(16).or_lanes(self.shift_left(16));
+        let x = x.shift_right(8).and(0x00ff_00ff).or_lanes(x.and(0x00ff_00ff).shift_left(8));
+        let x = x.shift_right(4).and(0x0f0f_0f0f).or_lanes(x.and(0x0f0f_0f0f).shift_left(4));
+        let x = x.shift_right(2).and(0x3333_3333).or_lanes(x.and(0x3333_3333).shift_left(2));
+        x.shift_right(1).and(0x5555_5555).or_lanes(x.and(0x5555_5555).shift_left(1))
+    }
+
     /// The lanes as f32, for values below 2^31.
     #[inline(always)]
     #[must_use]
@@ -797,6 +831,14 @@ mod tests {
         assert_eq!(u.eq(U8x::splat(3)).bits(), 0b1000);
         assert_eq!(u.shift_right(1).to_array(), [0, 0, 1, 1, 0x7f, 1 << 30, 3, 4]);
         assert_eq!(U8x::<I>::splat(5).to_f32(), F8::splat(5.0));
+        let w = U8x::<I>::from_array([0x9e37_79b9, 3, 0xffff_ffff, 1 << 31, 12345, 0xdead_beef, 0, 77]);
+        let (ua, wa) = (u.to_array(), w.to_array());
+        for i in 0..LANES {
+            assert_eq!(u.wrapping_mul(w).to_array()[i], ua[i].wrapping_mul(wa[i]));
+            assert_eq!(u.wrapping_add(w).to_array()[i], ua[i].wrapping_add(wa[i]));
+            assert_eq!(u.xor(w).to_array()[i], ua[i] ^ wa[i]);
+            assert_eq!(w.reverse_bits().to_array()[i], wa[i].reverse_bits());
+        }
         let v = V8::<I>::from_fn(|i| Vec3::new(i as f32, 1.0, -2.0 * i as f32));
         for i in 0..LANES {
             let s = v.lane(i);

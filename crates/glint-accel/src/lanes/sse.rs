@@ -138,6 +138,14 @@ impl Isa for Sse {
         a | b
     }
     #[inline(always)]
+    fn u_xor(a: u32x8, b: u32x8) -> u32x8 {
+        a ^ b
+    }
+    #[inline(always)]
+    fn u_mul(a: u32x8, b: u32x8) -> u32x8 {
+        a * b
+    }
+    #[inline(always)]
     fn u_shr(a: u32x8, n: u32) -> u32x8 {
         a >> n
     }
