@@ -36,8 +36,8 @@ use crate::path::lights::{LightSet, Pick, SHADOW_SHORT, SUNS};
 use crate::path::pow::pow8;
 use crate::world::{SurfaceHit, World};
 use glint_accel::batch::RayOrigins8;
-use glint_accel::lanes::{F8, Isa, LANES, LaneKernel, M8, V8, dispatch};
-use glint_core::random::SampleStream;
+use glint_accel::lanes::{F8, Isa, LANES, LaneKernel, M8, U8x, V8, dispatch};
+use glint_core::random::{SOBOL_DIMENSIONS, SampleStream, sobol_seeds};
 use glint_core::sampling::{COS_QUARTER, SIN_QUARTER};
 use glint_core::{Ray, Rgb, Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_4, TAU};
@@ -49,20 +49,30 @@ pub(super) struct PhongVertex {
     pub index: u32,
     pub kind: Kind,
     pub parts: PhongParts,
-    /// The choice's numbers (choice, point); `None` where the vertex samples no light (nor
-    /// the suns).
-    pub light: Option<(f32, Vec2)>,
+    /// Which random numbers it reads, from which dimension of its path's stream (drawn
+    /// eight vertices at a time, in lanes: [`draw8`]).
+    pub draws: Draws,
     /// The chosen light's sample is weighed against BSDF sampling (power heuristic) with
     /// the BSDF's pdf times this.
     pub mis: Option<f32>,
-    /// The bounce's numbers (lobe, direction); `None` where the path ends after its light
-    /// samples.
-    pub bounce: Option<(f32, Vec2)>,
-    /// Russian roulette's number, where the next vertex is past `rr_start`.
-    pub rr: Option<f32>,
     /// The dimension of the path's stream after these draws (a queued vertex with a whole
     /// stream and a light choice stalled on store forwarding when gathered).
     pub dimension: u64,
+}
+
+/// The random numbers of a vertex, in the order the scalar code draws them from dimension
+/// `first` of its path's stream: the light choice (1-D) and point (2-D) where it samples
+/// light; the lobe choice (1-D, stepped over for a lone Lambertian lobe: [`lobe_number`]) and
+/// the direction (2-D) where it bounces; Russian roulette's (1-D) where the next vertex is past
+/// `rr_start`.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Draws {
+    pub first: u64,
+    pub light: bool,
+    pub bounce: bool,
+    /// The lobe choice is drawn (else 0 stands in).
+    pub lobe: bool,
+    pub rr: bool,
 }
 
 /// Which vertex of its camera sample.
@@ -102,24 +112,20 @@ impl PhongVertex {
     /// scalar code's.
     #[inline]
     pub fn tail(index: u32, path: &Path, leg: &TailLeg, parts: PhongParts, budget: Budget) -> PhongVertex {
-        let mut stream = path.stream;
-        let (mut light, mut mis) = (None, None);
+        let first = path.stream.dimension();
+        let mut draws = Draws { first, light: false, bounce: false, lobe: !is_lambertian(&parts), rr: false };
+        let mut mis = None;
         if leg.bounce <= leg.max_bounces {
             // MIS against BSDF sampling, except at the last vertex (its BSDF ray is not traced).
             mis = (leg.bounce < leg.max_bounces || budget.mitsuba).then_some(1.0);
-            let u_choice = stream.next_1d();
-            light = Some((u_choice, stream.next_2d()));
+            draws.light = true;
         }
-        let (mut bounce, mut rr) = (None, None);
         if leg.bounce < leg.max_bounces + u32::from(budget.mitsuba) {
-            let u_lobe = lobe_number(&parts, &mut stream);
-            bounce = Some((u_lobe, stream.next_2d()));
-            if leg.bounce + 1 > budget.rr_start {
-                rr = Some(stream.next_1d());
-            }
+            draws.bounce = true;
+            draws.rr = leg.bounce + 1 > budget.rr_start;
         }
-        let dimension = stream.dimension();
-        PhongVertex { index, kind: Kind::Tail, parts, light, mis, bounce, rr, dimension }
+        let dimension = first + draws.count();
+        PhongVertex { index, kind: Kind::Tail, parts, draws, mis, dimension }
     }
 
     /// The guide vertex of path `index` (`filtered`: the frame is filtered), its numbers
@@ -130,7 +136,7 @@ impl PhongVertex {
         index: u32,
         guide: Guide,
         parts: PhongParts,
-        mut stream: SampleStream,
+        stream: SampleStream,
         budget: Budget,
         filtered: bool,
     ) -> PhongVertex {
@@ -138,15 +144,11 @@ impl PhongVertex {
         // the non-delta part's alone).
         let mitsuba = budget.mitsuba && !filtered;
         let mis = mitsuba.then(|| 1.0 / (parts.p_diffuse + parts.p_glossy).max(1e-12));
-        let u_choice = stream.next_1d();
-        let light = Some((u_choice, stream.next_2d()));
-        let mut bounce = None;
-        if guide.trace && (guide.bounces > 0 || mitsuba) {
-            let u_lobe = lobe_number(&parts, &mut stream);
-            bounce = Some((u_lobe, stream.next_2d()));
-        }
-        let (kind, dimension) = (Kind::Guide(guide), stream.dimension());
-        PhongVertex { index, kind, parts, light, mis, bounce, rr: None, dimension }
+        let bounce = guide.trace && (guide.bounces > 0 || mitsuba);
+        let first = stream.dimension();
+        let draws = Draws { first, light: true, bounce, lobe: !is_lambertian(&parts), rr: false };
+        let (kind, dimension) = (Kind::Guide(guide), first + draws.count());
+        PhongVertex { index, kind, parts, draws, mis, dimension }
     }
 
     /// Its path's stream after its draws.
@@ -160,18 +162,158 @@ impl PhongVertex {
     }
 }
 
-/// The lobe choice's number of a vertex of BSDF `parts`: drawn, unless the BSDF is a lone
-/// Lambertian lobe (chosen with probability 1: every number in [0, 1) picks it, in the lanes
-/// as in `Bsdf::sample` and `Bsdf::sample_non_delta`), whose dimension is stepped over and 0
-/// stands in (a Sobol draw saved at most vertices of an area-lit scene of diffuse walls).
+/// Whether the lobe choice of a vertex of BSDF `parts` needs no number: a lone Lambertian lobe
+/// is chosen with probability 1 (every number in [0, 1) picks it, in the lanes as in
+/// `Bsdf::sample` and `Bsdf::sample_non_delta`), so its dimension is stepped over and 0 stands
+/// in (a Sobol draw saved at most vertices of an area-lit scene of diffuse walls).
 #[inline]
-fn lobe_number(parts: &PhongParts, stream: &mut SampleStream) -> f32 {
-    if parts.p_diffuse == 1.0 && parts.p_glossy == 0.0 {
-        stream.skip(1);
-        0.0
-    } else {
-        stream.next_1d()
+fn is_lambertian(parts: &PhongParts) -> bool {
+    parts.p_diffuse == 1.0 && parts.p_glossy == 0.0
+}
+
+impl Draws {
+    /// The dimensions they take.
+    #[inline]
+    fn count(&self) -> u64 {
+        3 * u64::from(self.light) + 3 * u64::from(self.bounce) + u64::from(self.rr)
     }
+}
+
+/// A chunk's random numbers in lanes (a lane's unused numbers are zero).
+struct Numbers<I: Isa> {
+    choice: F8<I>,
+    point: [F8<I>; 2],
+    lobe: F8<I>,
+    dir: [F8<I>; 2],
+    rr: F8<I>,
+}
+
+/// The numbers of up to eight vertices' draws ([`Draws`]), lane `i` from the stream of
+/// `paths[chunk[i].index]` (the identity of a guide vertex's stream is its path's; only the
+/// dimension differs), bit for bit what `SampleStream::next_1d` / `next_2d` return there.
+/// Low-discrepancy draws (a Sobol stream below `SOBOL_DIMENSIONS`) are made in lanes: their
+/// seeds per lane (two 64-bit multiplies), then `random::sobol_draw`'s permutations and bit
+/// reversals for eight streams at once (about a hundred integer operations a 2-D draw, a
+/// few percent of a Cornell box frame when drawn one at a time); the others are hashed lane
+/// by lane.
+#[inline(always)]
+fn draw8<I: Isa>(chunk: &[PhongVertex], paths: &[Path]) -> Numbers<I> {
+    let mut lanes = [None; LANES];
+    for (lane, v) in lanes.iter_mut().zip(chunk) {
+        *lane = Some((paths[v.index as usize].stream, v.draws));
+    }
+    draw_streams(&lanes)
+}
+
+/// [`draw8`] of lane by lane a stream and its draws (`None`: an unused lane, all zeros).
+#[inline(always)]
+fn draw_streams<I: Isa>(lanes: &[Option<(SampleStream, Draws)>; LANES]) -> Numbers<I> {
+    let zero = F8::zero();
+    let mut n = Numbers { choice: zero, point: [zero; 2], lobe: zero, dir: [zero; 2], rr: zero };
+    // Per lane: the stream, and each draw's dimension (`None`: not drawn).
+    let mut streams = [None; LANES];
+    let mut index_reversed = [0u32; LANES];
+    let mut dims = [[None; 5]; LANES];
+    for i in 0..LANES {
+        let Some((stream, d)) = &lanes[i] else { continue };
+        let stream = *stream;
+        let mut at = d.first;
+        let mut next = |used: bool, take: u64| {
+            let here = at;
+            if used {
+                at += take;
+            }
+            used.then_some(here)
+        };
+        let choice = next(d.light, 1);
+        let point = next(d.light, 2);
+        let lobe = next(d.bounce, 1).filter(|_| d.lobe);
+        let dir = next(d.bounce, 2);
+        let rr = next(d.rr, 1);
+        dims[i] = [choice, point, lobe, dir, rr];
+        if let Some((_, reversed)) = stream.sobol_state() {
+            index_reversed[i] = reversed;
+        }
+        streams[i] = Some(stream);
+    }
+    let lanes = ChunkStreams { streams, dims, index_reversed: U8x::<I>::from_array(index_reversed) };
+    [n.choice, _] = draw_lanes(&lanes, 0, false);
+    n.point = draw_lanes(&lanes, 1, true);
+    [n.lobe, _] = draw_lanes(&lanes, 2, false);
+    n.dir = draw_lanes(&lanes, 3, true);
+    [n.rr, _] = draw_lanes(&lanes, 4, false);
+    n
+}
+
+/// A chunk's streams for [`draw_lanes`]: lane by lane the stream, its draws' dimensions
+/// (choice, point, lobe, direction, roulette; `None`: not drawn), its reversed sample index.
+struct ChunkStreams<I: Isa> {
+    streams: [Option<SampleStream>; LANES],
+    dims: [[Option<u64>; 5]; LANES],
+    index_reversed: U8x<I>,
+}
+
+/// Draw `k` (1-D, or 2-D where `two`) of every lane of [`draw8`]. (A function, not a closure:
+/// a closure is compiled without the kernel's instruction set, and its lane operations would
+/// become calls.)
+#[inline(always)]
+fn draw_lanes<I: Isa>(c: &ChunkStreams<I>, k: usize, two: bool) -> [F8<I>; 2] {
+    let (streams, dims, index_reversed) = (&c.streams, &c.dims, c.index_reversed);
+    let (mut shuffle, mut sx, mut sy) = ([0u32; LANES], [0u32; LANES], [0u32; LANES]);
+    let mut ld = 0u32;
+    let (mut x, mut y) = ([0.0f32; LANES], [0.0f32; LANES]);
+    for i in 0..LANES {
+        let (Some(stream), Some(d)) = (&streams[i], dims[i][k]) else { continue };
+        match stream.sobol_state() {
+            Some((scramble, _)) if d < SOBOL_DIMENSIONS => {
+                (shuffle[i], sx[i], sy[i]) = sobol_seeds(scramble, d);
+                ld |= 1 << i;
+            }
+            _ => {
+                x[i] = stream.independent_at(d);
+                if two {
+                    y[i] = stream.independent_at(d + 1);
+                }
+            }
+        }
+    }
+    let (mut u, mut v) = (F8::from_array(x), F8::from_array(y));
+    if ld != 0 {
+        let i = lk_permutation8(index_reversed, U8x::from_array(shuffle)).reverse_bits();
+        let m = M8::from_bits(ld);
+        u = F8::select(m, unit_float8(lk_permutation8(i, U8x::from_array(sx)).reverse_bits()), u);
+        if two {
+            let w = lk_permutation8(sobol_second_of_reversed8(i), U8x::from_array(sy)).reverse_bits();
+            v = F8::select(m, unit_float8(w), v);
+        }
+    }
+    [u, v]
+}
+
+/// `random::lk_permutation` in lanes.
+#[inline(always)]
+fn lk_permutation8<I: Isa>(x: U8x<I>, seed: U8x<I>) -> U8x<I> {
+    let x = x.xor(x.wrapping_mul(U8x::splat(0x3d20_adea)));
+    let x = x.wrapping_add(seed);
+    let x = x.wrapping_mul(seed.shift_right(16).or(1));
+    let x = x.xor(x.wrapping_mul(U8x::splat(0x0552_6c56)));
+    x.xor(x.wrapping_mul(U8x::splat(0x53a2_2864)))
+}
+
+/// `random::sobol_second_of_reversed` in lanes.
+#[inline(always)]
+fn sobol_second_of_reversed8<I: Isa>(i: U8x<I>) -> U8x<I> {
+    let f = i.xor(i.shift_right(1).and(0x5555_5555));
+    let f = f.xor(f.shift_right(2).and(0x3333_3333));
+    let f = f.xor(f.shift_right(4).and(0x0f0f_0f0f));
+    let f = f.xor(f.shift_right(8).and(0x00ff_00ff));
+    f.xor(f.shift_right(16))
+}
+
+/// `random::unit_float32` in lanes: the top 24 bits over 2^24 (exact).
+#[inline(always)]
+fn unit_float8<I: Isa>(x: U8x<I>) -> F8<I> {
+    x.shift_right(8).to_f32() * F8::splat(1.0 / (1u32 << 24) as f32)
 }
 
 /// A vertex's bounce: its ray, the path's β after it (tails: roulette included), its pdf,
@@ -240,7 +382,8 @@ impl<F: FnMut(&PhongVertex, PhongResult, &[SunShadow])> LaneKernel for Kernel<'_
     #[inline(always)]
     fn run<I: Isa>(mut self) {
         for chunk in self.vertices.chunks(LANES) {
-            let lanes = gather::<I>(chunk, self.paths, self.hits, (self.world, self.lights));
+            let numbers = draw8::<I>(chunk, self.paths);
+            let lanes = gather::<I>(chunk, &numbers, self.paths, self.hits, (self.world, self.lights));
             let shaded = shade8(&lanes, self.suns);
             scatter(&shaded, chunk, self.suns.len(), &mut *self.sun_rays, &mut self.apply);
         }
@@ -300,6 +443,7 @@ struct Lanes<I: Isa> {
 #[inline(always)]
 fn gather<I: Isa>(
     chunk: &[PhongVertex],
+    numbers: &Numbers<I>,
     paths: &[Path],
     hits: &[Option<SurfaceHit>],
     (world, lights): (&World, &LightSet),
@@ -387,7 +531,10 @@ fn gather<I: Isa>(
             b.p_diffuse[i] = p.p_diffuse;
             b.p_glossy[i] = p.p_glossy;
         }
-        if let Some((u_choice, u)) = v.light {
+        // A short chunk's repeated last vertex takes the last lane's numbers.
+        let j = i.min(chunk.len() - 1);
+        if v.draws.light {
+            let (u_choice, u) = (numbers.choice[j], Vec2::new(numbers.point[0][j], numbers.point[1][j]));
             lit |= bit;
             // The light's triangle and point, or the sky's direction, as `LightSet::sample`
             // chooses them.
@@ -423,15 +570,15 @@ fn gather<I: Isa>(
             mis |= bit;
             l.mis_scale[i] = scale;
         }
-        if let Some((u_lobe, u)) = v.bounce {
+        if v.draws.bounce {
             bounce |= bit;
-            l.u_lobe[i] = u_lobe;
-            l.u_bounce[0][i] = u.x;
-            l.u_bounce[1][i] = u.y;
+            l.u_lobe[i] = numbers.lobe[j];
+            l.u_bounce[0][i] = numbers.dir[0][j];
+            l.u_bounce[1][i] = numbers.dir[1][j];
         }
-        if let Some(u) = v.rr {
+        if v.draws.rr {
             rr |= bit;
-            l.u_rr[i] = u;
+            l.u_rr[i] = numbers.rr[j];
         }
     }
     let bits = M8::from_bits;
@@ -742,5 +889,76 @@ mod tests {
                 assert_eq!((got[0][i].to_bits(), got[1][i].to_bits()), (want.x.to_bits(), want.y.to_bits()), "{u}");
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod draw_tests {
+    use super::*;
+    use glint_accel::lanes::LaneKernel;
+    use glint_core::random::{Sampler, mix64};
+
+    /// Random streams (both samplers) and draws from dimensions around the end of the
+    /// low-discrepancy ones, drawn in lanes and one at a time.
+    struct Check(u64);
+
+    impl LaneKernel for Check {
+        type Output = ();
+        #[inline(always)]
+        fn run<I: Isa>(self) {
+            let mut h = self.0;
+            let mut rand = || {
+                h = mix64(h.wrapping_add(1));
+                h
+            };
+            for _ in 0..300 {
+                let mut lanes = [None; LANES];
+                let mut expected = [[0.0f32; 7]; LANES];
+                for (i, lane) in lanes.iter_mut().enumerate() {
+                    if rand() % 9 == 0 {
+                        continue;
+                    }
+                    let sampler = if rand() % 3 == 0 { Sampler::Independent } else { Sampler::Sobol };
+                    let first = rand() % (SOBOL_DIMENSIONS + 6);
+                    let stream = sampler.stream(rand() % 100_000, rand() % 300, rand() % 4).at_dimension(first);
+                    let r = rand();
+                    let d = Draws { first, light: r & 1 == 1, bounce: r & 2 == 2, lobe: r & 4 == 4, rr: r & 8 == 8 };
+                    // The scalar code's draws, in its order.
+                    let mut s = stream;
+                    let e = &mut expected[i];
+                    if d.light {
+                        e[0] = s.next_1d();
+                        let p = s.next_2d();
+                        (e[1], e[2]) = (p.x, p.y);
+                    }
+                    if d.bounce {
+                        e[3] = if d.lobe {
+                            s.next_1d()
+                        } else {
+                            s.skip(1);
+                            0.0
+                        };
+                        let p = s.next_2d();
+                        (e[4], e[5]) = (p.x, p.y);
+                    }
+                    if d.rr {
+                        e[6] = s.next_1d();
+                    }
+                    assert_eq!(s.dimension(), first + d.count());
+                    *lane = Some((stream, d));
+                }
+                let n = draw_streams::<I>(&lanes);
+                for i in 0..LANES {
+                    let got = [n.choice[i], n.point[0][i], n.point[1][i], n.lobe[i], n.dir[0][i], n.dir[1][i], n.rr[i]];
+                    assert_eq!(got.map(f32::to_bits), expected[i].map(f32::to_bits), "lane {i}: {:?}", lanes[i]);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn lanes_draw_what_the_streams_draw_one_at_a_time() {
+        dispatch(Check(1), true);
+        dispatch(Check(2), false);
     }
 }
