@@ -152,6 +152,7 @@ pub(super) fn closest_frustum(
     let mut leaf_rays = LeafRays::new(rays);
     // Made on the first leaf (most packets that miss never reach one).
     let mut lanes = None;
+    let mut best = Best8::new();
     let mut tmax = load(&pr.tmax);
     let mut far = lane_max(tmax);
     let mut stack = Stack::<Entry>::new();
@@ -174,7 +175,7 @@ pub(super) fn closest_frustum(
                 match lanes.get_or_insert_with(|| LeafLanes::new(rays, group)) {
                     Some(l) if m.count_ones() >= MIN_LEAF_LANES => {
                         for p in &bvh.packets[leaf_packets(cur.child)] {
-                            l.closest(p, rays, m, &mut pr.tmax, out);
+                            l.closest(p, rays, m, &mut pr.tmax, (&mut best, out));
                         }
                     }
                     _ => {
@@ -197,6 +198,7 @@ pub(super) fn closest_frustum(
             }
         }
     }
+    best.finish(out);
 }
 
 /// Fewest rays in a leaf for which testing each triangle against all of them at once
@@ -249,8 +251,10 @@ impl LeafLanes {
     }
 
     /// Each triangle of `p` against the rays of `active` (the operations of `sse::tri4`, lane
-    /// for lane: the same bits); hits closer than a ray's best replace it and lower its `tmax`.
-    /// Lanes with a zero edge function take the exact test of `primitives::woop`, as there.
+    /// for lane: the same bits); hits closer than a ray's best in lanes (`best`, by
+    /// [`closer`]'s rule in lanes) replace it and lower its `tmax`. Lanes with a zero edge
+    /// function take the exact test of `primitives::woop`, as there, against `out`; the caller
+    /// merges `best` into `out` when its walk ends ([`Best8::finish`]).
     #[inline(always)]
     pub(super) fn closest(
         &self,
@@ -258,7 +262,7 @@ impl LeafLanes {
         rays: &[Ray; 8],
         active: u32,
         tmax: &mut [f32; 8],
-        out: &mut [Option<Hit>; 8],
+        (best, out): (&mut Best8, &mut [Option<Hit>; 8]),
     ) {
         let [kx, ky, kz] = self.k;
         for j in 0..PACKET {
@@ -267,13 +271,11 @@ impl LeafLanes {
                 continue;
             }
             let vert = |v: usize| [p.v[v][kx][j], p.v[v][ky][j], p.v[v][kz][j]];
-            let l = tri8(self, vert(0), vert(1), vert(2), load(tmax), active);
+            let t_max = load(tmax);
+            let l = tri8(self, vert(0), vert(1), vert(2), t_max, active);
             let prim = p.prim[j];
-            for i in Lanes(l.hit & active) {
-                if closer(l.t[i], prim, &out[i]) {
-                    tmax[i] = l.t[i];
-                    out[i] = Some(Hit { t: l.t[i], prim, u: l.v[i] / l.det[i], v: l.w[i] / l.det[i] });
-                }
+            if l.hit & active != 0 {
+                best.offer(&l, prim, l.hit & active, t_max, tmax);
             }
             for i in Lanes(l.zero & active) {
                 let [a, b, c] = p.lane(j);
@@ -320,10 +322,82 @@ impl LeafLanes {
 struct Lanes8 {
     hit: u32,
     zero: u32,
-    t: [f32; 8],
-    v: [f32; 8],
-    w: [f32; 8],
-    det: [f32; 8],
+    t: __m256,
+    v: __m256,
+    w: __m256,
+    det: __m256,
+}
+
+/// The nearest hits [`LeafLanes::closest`] found so far, per lane and in registers: distance,
+/// primitive and the unnormalised barycentrics (`V`, `W`, `det`), in the lanes of `found`.
+/// Made into [`Hit`]s once, when the walk ends ([`Best8::finish`]): per hit, a scalar loop with
+/// two divisions cost a tenth of the Cornell box's packet walks.
+pub(super) struct Best8 {
+    t: __m256,
+    prim: __m256i,
+    v: __m256,
+    w: __m256,
+    det: __m256,
+    found: u32,
+}
+
+impl Best8 {
+    #[inline(always)]
+    pub(super) fn new() -> Self {
+        // SAFETY: AVX only; inlined into the `avx2,fma` kernels (see the top of the file).
+        unsafe {
+            let zero = _mm256_setzero_ps();
+            Self { t: splat(f32::INFINITY), prim: _mm256_set1_epi32(-1), v: zero, w: zero, det: zero, found: 0 }
+        }
+    }
+
+    /// Triangle `prim`'s hits `l` in the lanes `lanes` (within `t_max`, the rays' `tmax`s as
+    /// loaded from `tmax`): those nearer than the lane's best, or as near with a lower
+    /// primitive ([`closer`]), replace it, and their distance becomes the ray's `tmax`.
+    #[inline(always)]
+    fn offer(&mut self, l: &Lanes8, prim: u32, lanes: u32, t_max: __m256, tmax: &mut [f32; 8]) {
+        // SAFETY: AVX2 only; inlined into the `avx2,fma` kernels (see the top of the file).
+        unsafe {
+            let p = _mm256_set1_epi32(prim as i32);
+            // Unsigned `prim < best`: both biased into the signed order.
+            let bias = _mm256_set1_epi32(i32::MIN);
+            let prim_lower = _mm256_cmpgt_epi32(_mm256_xor_si256(self.prim, bias), _mm256_xor_si256(p, bias));
+            let nearer = _mm256_cmp_ps::<_CMP_LT_OQ>(l.t, self.t);
+            let tie = _mm256_and_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(l.t, self.t), _mm256_castsi256_ps(prim_lower));
+            let take = _mm256_movemask_ps(_mm256_or_ps(nearer, tie)) as u32 & lanes;
+            if take == 0 {
+                return;
+            }
+            let m = lane_mask(take);
+            self.t = _mm256_blendv_ps(self.t, l.t, m);
+            self.prim =
+                _mm256_castps_si256(_mm256_blendv_ps(_mm256_castsi256_ps(self.prim), _mm256_castsi256_ps(p), m));
+            self.v = _mm256_blendv_ps(self.v, l.v, m);
+            self.w = _mm256_blendv_ps(self.w, l.w, m);
+            self.det = _mm256_blendv_ps(self.det, l.det, m);
+            self.found |= take;
+            *tmax = store(_mm256_blendv_ps(t_max, l.t, m));
+        }
+    }
+
+    /// The best hits into `out`, each where it is [`closer`] than what `out` holds (the hits
+    /// the rays' scalar tests found), with its barycentrics `V / det`, `W / det` (the division
+    /// the single-ray leaf makes): the nearest hit of all, lowest primitive among equals.
+    #[inline(always)]
+    pub(super) fn finish(&self, out: &mut [Option<Hit>; 8]) {
+        if self.found == 0 {
+            return;
+        }
+        let (t, v, w, det) = (store(self.t), store(self.v), store(self.w), store(self.det));
+        let mut prim = [0u32; 8];
+        // SAFETY: 32 writable bytes, `storeu` needs no alignment; AVX (top of the file).
+        unsafe { _mm256_storeu_si256(prim.as_mut_ptr().cast(), self.prim) };
+        for i in Lanes(self.found) {
+            if closer(t[i], prim[i], &out[i]) {
+                out[i] = Some(Hit { t: t[i], prim: prim[i], u: v[i] / det[i], v: w[i] / det[i] });
+            }
+        }
+    }
 }
 
 /// The watertight test of one triangle (vertices given in the rays' permuted axes) against
@@ -356,7 +430,7 @@ fn tri8(l: &LeafLanes, a: [f32; 3], b: [f32; 3], c: [f32; 3], tmax: __m256, acti
     // early exit in `sse::tri4`, one ray against 4 triangles, measured 3–5 % slower on
     // diffuse rays: its branch is less predictable there.)
     if (outside | !active) & 0xff == 0xff && zero_bits & active == 0 {
-        return Lanes8 { hit: 0, zero: 0, t: [0.0; 8], v: [0.0; 8], w: [0.0; 8], det: [0.0; 8] };
+        return Lanes8 { hit: 0, zero: 0, t: zero, v: zero, w: zero, det: zero };
     }
     let det = add(add(u, v), w);
     let t = add(add(mul(u, mul(sz, az)), mul(v, mul(sz, bz))), mul(w, mul(sz, cz)));
@@ -364,7 +438,7 @@ fn tri8(l: &LeafLanes, a: [f32; 3], b: [f32; 3], c: [f32; 3], tmax: __m256, acti
     let ok = and(and(cmp::<_CMP_GT_OQ>(t, l.tmin), cmp::<_CMP_LE_OQ>(t, tmax)), cmp::<_CMP_NEQ_UQ>(det, zero));
     // SAFETY: AVX only; inlined into the `avx2,fma` kernel above (see the top of the file).
     let ok = unsafe { _mm256_movemask_ps(_mm256_andnot_ps(and(any_neg, any_pos), ok)) as u32 };
-    Lanes8 { hit: ok & !zero_bits, zero: zero_bits, t: store(t), v: store(v), w: store(w), det: store(det) }
+    Lanes8 { hit: ok & !zero_bits, zero: zero_bits, t, v, w, det }
 }
 
 #[inline(always)]
