@@ -198,16 +198,18 @@ struct Numbers<I: Isa> {
 /// by lane.
 #[inline(always)]
 fn draw8<I: Isa>(chunk: &[PhongVertex], paths: &[Path]) -> Numbers<I> {
+    // References, not copies: the streams and draws copied into an array of pairs were read
+    // back across two of their stores (a stalled store forward, 4 % of a Cornell box frame).
     let mut lanes = [None; LANES];
     for (lane, v) in lanes.iter_mut().zip(chunk) {
-        *lane = Some((paths[v.index as usize].stream, v.draws));
+        *lane = Some((&paths[v.index as usize].stream, &v.draws));
     }
     draw_streams(&lanes)
 }
 
 /// [`draw8`] of lane by lane a stream and its draws (`None`: an unused lane, all zeros).
 #[inline(always)]
-fn draw_streams<I: Isa>(lanes: &[Option<(SampleStream, Draws)>; LANES]) -> Numbers<I> {
+fn draw_streams<I: Isa>(lanes: &[Option<(&SampleStream, &Draws)>; LANES]) -> Numbers<I> {
     let zero = F8::zero();
     let mut n = Numbers { choice: zero, point: [zero; 2], lobe: zero, dir: [zero; 2], rr: zero };
     // Per lane: the stream, and each draw's dimension (`None`: not drawn).
@@ -215,8 +217,7 @@ fn draw_streams<I: Isa>(lanes: &[Option<(SampleStream, Draws)>; LANES]) -> Numbe
     let mut index_reversed = [0u32; LANES];
     let mut dims = [[None; 5]; LANES];
     for i in 0..LANES {
-        let Some((stream, d)) = &lanes[i] else { continue };
-        let stream = *stream;
+        let Some((stream, d)) = lanes[i] else { continue };
         let mut at = d.first;
         let mut next = |used: bool, take: u64| {
             let here = at;
@@ -247,8 +248,8 @@ fn draw_streams<I: Isa>(lanes: &[Option<(SampleStream, Draws)>; LANES]) -> Numbe
 
 /// A chunk's streams for [`draw_lanes`]: lane by lane the stream, its draws' dimensions
 /// (choice, point, lobe, direction, roulette; `None`: not drawn), its reversed sample index.
-struct ChunkStreams<I: Isa> {
-    streams: [Option<SampleStream>; LANES],
+struct ChunkStreams<'a, I: Isa> {
+    streams: [Option<&'a SampleStream>; LANES],
     dims: [[Option<u64>; 5]; LANES],
     index_reversed: U8x<I>,
 }
@@ -257,13 +258,13 @@ struct ChunkStreams<I: Isa> {
 /// a closure is compiled without the kernel's instruction set, and its lane operations would
 /// become calls.)
 #[inline(always)]
-fn draw_lanes<I: Isa>(c: &ChunkStreams<I>, k: usize, two: bool) -> [F8<I>; 2] {
+fn draw_lanes<I: Isa>(c: &ChunkStreams<'_, I>, k: usize, two: bool) -> [F8<I>; 2] {
     let (streams, dims, index_reversed) = (&c.streams, &c.dims, c.index_reversed);
     let (mut shuffle, mut sx, mut sy) = ([0u32; LANES], [0u32; LANES], [0u32; LANES]);
     let mut ld = 0u32;
     let (mut x, mut y) = ([0.0f32; LANES], [0.0f32; LANES]);
     for i in 0..LANES {
-        let (Some(stream), Some(d)) = (&streams[i], dims[i][k]) else { continue };
+        let (Some(stream), Some(d)) = (streams[i], dims[i][k]) else { continue };
         match stream.sobol_state() {
             Some((scramble, _)) if d < SOBOL_DIMENSIONS => {
                 (shuffle[i], sx[i], sy[i]) = sobol_seeds(scramble, d);
@@ -947,7 +948,9 @@ mod draw_tests {
                     assert_eq!(s.dimension(), first + d.count());
                     *lane = Some((stream, d));
                 }
-                let n = draw_streams::<I>(&lanes);
+                let refs: [Option<(&SampleStream, &Draws)>; LANES] =
+                    std::array::from_fn(|i| lanes[i].as_ref().map(|(s, d)| (s, d)));
+                let n = draw_streams::<I>(&refs);
                 for i in 0..LANES {
                     let got = [n.choice[i], n.point[0][i], n.point[1][i], n.lobe[i], n.dir[0][i], n.dir[1][i], n.rr[i]];
                     assert_eq!(got.map(f32::to_bits), expected[i].map(f32::to_bits), "lane {i}: {:?}", lanes[i]);
