@@ -45,14 +45,10 @@ fn cost_as_leaf(bounds: &Bounds3, count: u32) -> f64 {
 /// cut of `fine` ([`best_cut`]) refined by single moves ([`refine`]), as a binary tree with
 /// its cost; `None` as for [`best_cut`].
 pub(crate) fn best_leaves(fine: &Bvh2, boxes: &[Bounds3], width: usize, ct: f32, ci: f32) -> Option<(Bvh2, f64)> {
-    let (cut, _) = best_cut(fine, width, ct, ci)?;
-    let order = cut.prim_indices();
-    let mut groups: Vec<Vec<u32>> = cut
-        .nodes()
-        .iter()
-        .filter(|n| n.is_leaf())
-        .map(|n| order[n.first as usize..(n.first + n.count) as usize].to_vec())
-        .collect();
+    let (cut, _) = best_cut(fine, width)?;
+    let order = fine.prim_indices();
+    let mut groups: Vec<Vec<u32>> =
+        cut.iter().map(|l| order[l.first as usize..(l.first + l.count) as usize].to_vec()).collect();
     refine(&mut groups, boxes, width);
     Some(tree_of(&groups, boxes, ct, ci))
 }
@@ -152,10 +148,10 @@ fn tree_of(groups: &[Vec<u32>], boxes: &[Bounds3], ct: f32, ci: f32) -> (Bvh2, f
 }
 
 /// The cut of `fine` into at most `width` (≤ 8) subtrees of at most [`MAX_LEAF`] primitives
-/// each that minimises `Σ half-area · primitives`, as a binary tree whose leaves are those
-/// subtrees (the primitive order is `fine`'s), with its cost. `None` when no such cut exists
-/// (too many primitives), or when a subtree's primitives are not one run of the order.
-pub(crate) fn best_cut(fine: &Bvh2, width: usize, ct: f32, ci: f32) -> Option<(Bvh2, f64)> {
+/// each that minimises `Σ half-area · primitives`: the subtrees as leaves (box and run of
+/// `fine`'s primitive order), with its cost. `None` when no such cut exists (too many
+/// primitives), or when a subtree's primitives are not one run of the order.
+pub(crate) fn best_cut(fine: &Bvh2, width: usize) -> Option<(Vec<Bvh2Node>, f64)> {
     let nodes = fine.nodes();
     let width = width.min(MAX_WIDTH);
     if nodes.is_empty() || width == 0 {
@@ -201,35 +197,19 @@ pub(crate) fn best_cut(fine: &Bvh2, width: usize, ct: f32, ci: f32) -> Option<(B
     if !cost.is_finite() {
         return None;
     }
-    // The cut's tree, in pre-order, right children's indices patched once known.
-    let mut out: Vec<Bvh2Node> = Vec::new();
-    let depth = emit(nodes, &run, &left_k, 0, width, &mut out);
-    Some((Bvh2::from_parts(out, fine.prim_indices().to_vec(), depth, ct, ci), cost))
-}
-
-/// Appends subtree `b` cut into at most `k` leaves (by `left_k`) to `out` in pre-order;
-/// returns its depth.
-fn emit(
-    nodes: &[Bvh2Node],
-    run: &[(u32, u32)],
-    left_k: &[[u8; MAX_WIDTH + 1]],
-    b: usize,
-    k: usize,
-    out: &mut Vec<Bvh2Node>,
-) -> usize {
-    let node = &nodes[b];
-    let j = left_k[b][k] as usize;
-    if j == 0 {
-        let (first, count) = run[b];
-        out.push(Bvh2Node { bounds: node.bounds, first, count });
-        return 1;
+    // The cut's subtrees, read back from the choices made.
+    let mut leaves = Vec::new();
+    let mut todo = vec![(0usize, width)];
+    while let Some((b, k)) = todo.pop() {
+        match left_k[b][k] as usize {
+            0 => {
+                let (first, count) = run[b];
+                leaves.push(Bvh2Node { bounds: nodes[b].bounds, first, count });
+            }
+            j => todo.extend([(nodes[b].first as usize, k - j), (b + 1, j)]),
+        }
     }
-    let me = out.len();
-    out.push(Bvh2Node { bounds: node.bounds, first: 0, count: 0 });
-    let dl = emit(nodes, run, left_k, b + 1, j, out);
-    out[me].first = out.len() as u32;
-    let dr = emit(nodes, run, left_k, node.first as usize, k - j, out);
-    1 + dl.max(dr)
+    Some((leaves, cost))
 }
 
 #[cfg(test)]
@@ -271,14 +251,16 @@ mod tests {
             let fine = Bvh2::build(&m.positions, &m.triangles, &opts);
             for width in [2usize, 4, 8] {
                 let expected = brute_force(&fine, 0, width);
-                let Some((cut, cost)) = best_cut(&fine, width, 1.0, 1.0) else {
+                let Some((cut, cost)) = best_cut(&fine, width) else {
                     // Only where no cut has leaves small enough.
                     assert!(expected.is_infinite(), "round {round}: no cut into {width}, brute force {expected}");
                     continue;
                 };
                 assert!((cost - expected).abs() <= 1e-9 * expected.max(1.0), "round {round}: {cost} vs {expected}");
-                assert!((leaf_cost(&cut) - cost).abs() <= 1e-9 * cost.max(1.0));
-                let leaves = leaves_of(&cut);
+                let cut_cost: f64 = cut.iter().map(|l| cost_as_leaf(&l.bounds, l.count)).sum();
+                assert!((cut_cost - cost).abs() <= 1e-9 * cost.max(1.0));
+                let mut leaves: Vec<(u32, u32)> = cut.iter().map(|l| (l.first, l.count)).collect();
+                leaves.sort_unstable();
                 assert!(leaves.len() <= width);
                 // The leaves' runs tile the primitive order.
                 let mut next = 0;
@@ -289,7 +271,7 @@ mod tests {
                 }
                 assert_eq!(next as usize, fine.prim_indices().len());
                 // Every box holds its leaf's triangles.
-                for n in cut.nodes().iter().filter(|n| n.is_leaf()) {
+                for n in &cut {
                     for &p in &fine.prim_indices()[n.first as usize..(n.first + n.count) as usize] {
                         for &v in &m.triangles[p as usize] {
                             let q: Vec3 = m.positions[v as usize];
@@ -310,7 +292,7 @@ mod tests {
             let opts = BuildOptions { max_leaf_size: 1, traversal_cost: 0.0, ..BuildOptions::default() };
             let fine = Bvh2::build(&m.positions, &m.triangles, &opts);
             for width in [2usize, 4, 8] {
-                let Some((cut, cut_cost)) = best_cut(&fine, width, 1.0, 1.0) else { continue };
+                let Some((_, cut_cost)) = best_cut(&fine, width) else { continue };
                 let (refined, cost) = best_leaves(&fine, &boxes, width, 1.0, 1.0).expect("a cut exists");
                 assert!(cost <= cut_cost * (1.0 + 1e-9), "round {round}: {cost} > {cut_cost}");
                 assert!((leaf_cost(&refined) - cost).abs() <= 1e-9 * cost.max(1.0));
@@ -318,7 +300,7 @@ mod tests {
                 assert!(leaves.len() <= width && leaves.iter().all(|l| l.1 as usize <= MAX_LEAF));
                 let mut prims = refined.prim_indices().to_vec();
                 prims.sort_unstable();
-                let mut expected = cut.prim_indices().to_vec();
+                let mut expected = fine.prim_indices().to_vec();
                 expected.sort_unstable();
                 assert_eq!(prims, expected);
             }
@@ -370,7 +352,7 @@ mod tests {
         let m = triangle_soup(3 * MAX_LEAF, 0.5, 5);
         let opts = BuildOptions { max_leaf_size: 1, traversal_cost: 0.0, ..BuildOptions::default() };
         let fine = Bvh2::build(&m.positions, &m.triangles, &opts);
-        assert!(best_cut(&fine, 2, 1.0, 1.0).is_none());
-        assert!(best_cut(&fine, 4, 1.0, 1.0).is_some());
+        assert!(best_cut(&fine, 2).is_none());
+        assert!(best_cut(&fine, 4).is_some());
     }
 }
