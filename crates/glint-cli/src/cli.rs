@@ -574,6 +574,15 @@ pub enum RayKind {
     Shadow,
 }
 
+/// How `glint bench rays` builds the scene's trees.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BuildArg {
+    /// As the renderer does: spatial splits for closest hits, object splits for any hits.
+    Spatial,
+    /// Object splits only, one tree (the build Embree does at its default quality).
+    Fast,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum ScheduleArg {
     Stealing,
@@ -814,6 +823,9 @@ pub struct BenchRaysArgs {
     /// fastest build (the BVH build benchmark; the rays are timed on the last build).
     #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = unsigned::<usize>)]
     pub builds: usize,
+    /// How the trees are built: `spatial` as the renderer does, `fast` without spatial splits.
+    #[arg(long, value_enum, default_value = "spatial")]
+    pub build: BuildArg,
 }
 
 #[derive(Args, Debug)]

@@ -181,9 +181,10 @@ fn check_frame_memory(
 }
 
 /// Peak bytes per triangle while the world builds its trees (its BVHs, their precomputed
-/// triangles and the build's references): about 210 measured for the whole process on the
-/// 100 k-triangle dragon (peak RSS over the 15 k-triangle Lucy's), rounded up.
-const BUILD_BYTES_PER_TRIANGLE: u64 = 256;
+/// triangles and the build's references): about 330 measured for the whole process on the
+/// 100 k-triangle dragon (peak RSS over the 15 k-triangle Lucy's; 170 before a mesh had a
+/// spatial-split tree beside its any-hit tree), rounded up.
+const BUILD_BYTES_PER_TRIANGLE: u64 = 384;
 /// Bytes per point of the points mode's prepared layout and its temporaries (the layout is
 /// 24 bytes a point; while it is made, each point's 40-byte record sorted with its key).
 const LAYOUT_BYTES_PER_POINT: u64 = 64;

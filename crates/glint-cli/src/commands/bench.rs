@@ -2,11 +2,12 @@
 //! it for the Embree scripts in ../shared/bench); `whitted` times whole frames.
 
 use crate::cli::{
-    BenchCommand, BenchPathArgs, BenchRaysArgs, BenchWhittedArgs, FilterOptions, KernelArg, PathKernelArg, RayKind,
-    ScheduleArg, clap_defaults,
+    BenchCommand, BenchPathArgs, BenchRaysArgs, BenchWhittedArgs, BuildArg, FilterOptions, KernelArg, PathKernelArg,
+    RayKind, ScheduleArg, clap_defaults,
 };
 use crate::input;
 use anyhow::{Context, Result, bail};
+use glint_accel::BuildOptions;
 use glint_core::random::SampleStream;
 use glint_core::sampling::sample_cosine_hemisphere;
 use glint_core::{Frame, Ray, Vec2, Vec3};
@@ -168,11 +169,15 @@ fn rays(a: &BenchRaysArgs) -> Result<()> {
     }
     pool.install(|| -> Result<()> {
         // Not sized from the user's count: a huge `--builds` only takes long.
+        let options = match a.build {
+            BuildArg::Spatial => BuildOptions::spatial(),
+            BuildArg::Fast => BuildOptions::default(),
+        };
         let mut builds = Vec::new();
         for _ in 1..a.builds {
-            builds.push(World::new(scene.clone()).stats.build_ms);
+            builds.push(World::with_build(scene.clone(), options.clone()).stats.build_ms);
         }
-        let world = World::new(scene);
+        let world = World::with_build(scene, options);
         builds.push(world.stats.build_ms);
         let build = if a.builds == 1 {
             format!("build {:.1} ms", builds[0])

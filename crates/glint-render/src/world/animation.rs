@@ -4,7 +4,7 @@
 use super::World;
 use super::instances::{Instance, InstanceShape, Plane, object_curvature, top_level};
 use super::merged;
-use glint_accel::{BuildOptions, MeshBvh};
+use glint_accel::MeshBvh;
 use glint_core::{Affine3A, Vec3};
 use glint_scene::{AnimationTarget, Light, Shape};
 use std::sync::Arc;
@@ -132,15 +132,14 @@ impl World {
         if !changed || self.instances.iter().zip(&merge).all(|(i, &m)| i.merged == m) {
             return;
         }
-        let options = BuildOptions::default();
         for (inst, &m) in self.instances.iter_mut().zip(&merge) {
             if let (true, false, InstanceShape::Mesh(k)) = (inst.merged, m, inst.shape) {
                 let mesh = &self.meshes[k];
-                self.blas[k] = MeshBvh::build(&mesh.positions, &mesh.triangles, &options);
+                self.blas[k] = MeshBvh::build(&mesh.positions, &mesh.triangles, &self.build);
             }
             inst.merged = m;
         }
-        self.merged = merged::build(&self.instances, &self.meshes, &merge);
+        self.merged = merged::build(&self.instances, &self.meshes, &merge, &self.build);
         self.rebuild_top_level();
     }
 

@@ -65,7 +65,12 @@ pub(super) fn mergeable(instances: &[Instance], meshes: &[Arc<Mesh>], pinned: &[
 
 /// Bake the instances marked in `merge` into world space and build one BVH over them; None
 /// when none is marked.
-pub(super) fn build(instances: &[Instance], meshes: &[Arc<Mesh>], merge: &[bool]) -> Option<Merged> {
+pub(super) fn build(
+    instances: &[Instance],
+    meshes: &[Arc<Mesh>],
+    merge: &[bool],
+    options: &BuildOptions,
+) -> Option<Merged> {
     let mut positions: Vec<Vec3> = Vec::new();
     let mut triangles: Vec<[u32; 3]> = Vec::new();
     let mut owner = Vec::new();
@@ -89,5 +94,5 @@ pub(super) fn build(instances: &[Instance], meshes: &[Arc<Mesh>], merge: &[bool]
     if owner.is_empty() {
         return None;
     }
-    Some(Merged { bvh: MeshBvh::build(&positions, &triangles, &BuildOptions::default()), owner })
+    Some(Merged { bvh: MeshBvh::build(&positions, &triangles, options), owner })
 }

@@ -56,6 +56,8 @@ pub struct World {
     bounds: Bounds3,
     meshes: Vec<Arc<Mesh>>,
     blas: Vec<MeshBvh>,
+    /// How the meshes' trees are built.
+    build: BuildOptions,
     instances: Vec<Instance>,
     tlas: Tlas,
     /// Whether the TLAS holds any instance (not when every instance is in the sphere set):
@@ -84,10 +86,19 @@ pub struct World {
 }
 
 impl World {
-    /// Build the acceleration structures of a validated scene (meshes in parallel).
+    /// Build the acceleration structures of a validated scene (meshes in parallel), with
+    /// spatial splits ([`BuildOptions::spatial`]): a scene is built once and traced many times.
+    #[must_use]
     pub fn new(scene: Scene) -> Self {
+        Self::with_build(scene, BuildOptions::spatial())
+    }
+
+    /// [`World::new`] with the meshes' trees built with `options` (also those built later,
+    /// when an object starts to move). A mesh whose vertices are moved later is refitted,
+    /// whatever it was built with.
+    #[must_use]
+    pub fn with_build(scene: Scene, options: BuildOptions) -> Self {
         let start = std::time::Instant::now();
-        let options = BuildOptions::default();
         let meshes = scene.meshes.clone();
         let transparent = |m: usize| scene.materials[m].is_transparent();
         let mesh_opaque = |mesh: usize, object_material: usize| match &meshes[mesh].triangle_materials {
@@ -159,7 +170,7 @@ impl World {
                     })
                     .collect()
             },
-            || merged::build(&instances, &meshes, &merge),
+            || merged::build(&instances, &meshes, &merge, &options),
         );
         let top = top_level(&instances, &blas);
         let any_transparent = scene.materials.iter().any(Material::is_transparent);
@@ -186,6 +197,7 @@ impl World {
             top_members: top.members,
             merged,
             pinned,
+            build: options,
             planes,
             instance_of_object,
             any_transparent,

@@ -14,8 +14,13 @@
 //! Degenerate inputs never recurse forever: when all centroids coincide, or past a depth limit,
 //! the node is split in the middle by count (after ordering by centroid when they differ).
 //!
-//! Knows nothing about triangles: it takes one box per primitive (the mesh and instance BVHs
-//! supply them) and drops boxes that are empty or not finite — those primitives are never hit.
+//! Takes one box per primitive (the mesh and instance BVHs supply them) and drops boxes that
+//! are empty or not finite — those primitives are never hit. Over triangles, the top of the
+//! tree may also split triangles at planes ([`spatial`], when
+//! [`BuildOptions::spatial_splits`] allows references to be added): a triangle is then in
+//! more than one leaf.
+
+mod spatial;
 
 use crate::bvh2::{Bvh2, Bvh2Node};
 use glint_core::glam::BVec3A;
@@ -37,6 +42,9 @@ pub struct BuildOptions {
     pub parallel_threshold: usize,
     /// Node width of [`crate::MeshBvh`].
     pub width: Width,
+    /// Spatial splits over triangles: at most this many references added per triangle
+    /// (clamped to 0..=2; 0 turns them off). Boxes of other primitives are never split.
+    pub spatial_splits: f32,
 }
 
 /// Node width of the wide layout.
@@ -57,6 +65,20 @@ impl Width {
     }
 }
 
+/// The references [`BuildOptions::spatial`] may add per triangle. Sponza's path frame was
+/// fastest with 0.1–0.3 (0.3: −3 %; 1.0 gained less, its trees are bigger; BENCHMARKS.md
+/// §13.14).
+pub const SPATIAL_SPLITS: f32 = 0.3;
+
+impl BuildOptions {
+    /// The defaults with spatial splits ([`SPATIAL_SPLITS`]): the renderer's static meshes,
+    /// built once and traced many times. A build takes three to four times as long.
+    #[must_use]
+    pub fn spatial() -> Self {
+        Self { spatial_splits: SPATIAL_SPLITS, ..Self::default() }
+    }
+}
+
 impl Default for BuildOptions {
     fn default() -> Self {
         Self {
@@ -66,6 +88,7 @@ impl Default for BuildOptions {
             intersection_cost: 1.0,
             parallel_threshold: 8192,
             width: Width::Auto,
+            spatial_splits: 0.0,
         }
     }
 }
@@ -98,6 +121,10 @@ const ID_FLIP: u32 = 0x4000_0000;
 impl PrimRef {
     fn new(b: &Bounds3, id: u32) -> Self {
         Self { lo: b.min.extend(f32::from_bits(id ^ ID_FLIP)), hi: b.max.extend(0.0) }
+    }
+
+    fn from_corners((lo, hi): (Vec3A, Vec3A), id: u32) -> Self {
+        Self { lo: lo.extend(f32::from_bits(id ^ ID_FLIP)), hi: hi.extend(0.0) }
     }
 
     #[inline(always)]
@@ -211,6 +238,15 @@ impl Bins {
             self.max[a][i] = self.max[a][i].max(hi);
             self.count[a][i] += 1;
         }
+    }
+}
+
+/// The bins of a node's references (in parallel chunks for a big node; merged exactly).
+fn bin_refs(refs: &[PrimRef], map: &BinMap) -> Bins {
+    if refs.len() > PARALLEL_BINNING {
+        refs.par_chunks(BIN_CHUNK).map(|c| bin_slice(c, map)).reduce(Bins::new, |a, b| a.merge(&b))
+    } else {
+        bin_slice(refs, map)
     }
 }
 
@@ -377,12 +413,7 @@ fn build_rec(
     let mut map = None;
     if !centroids_equal && depth < SAH_DEPTH_LIMIT {
         let m = BinMap::new(&cbounds, s.bins);
-        let bins = if n > PARALLEL_BINNING {
-            refs.par_chunks(BIN_CHUNK).map(|c| bin_slice(c, &m)).reduce(Bins::new, |a, b| a.merge(&b))
-        } else {
-            bin_slice(refs, &m)
-        };
-        split = best_split(&bins, s.bins);
+        split = best_split(&bin_refs(refs, &m), s.bins);
         map = Some(m);
     }
     let (nl, lb, lcb, rb, rcb) = match (split, map) {
@@ -445,14 +476,15 @@ fn build_rec(
 /// Builds a binary BVH over primitive boxes (index = primitive id). Boxes that are empty or not
 /// finite are left out.
 pub(crate) fn build_bvh2(boxes: &[Bounds3], options: &BuildOptions) -> Bvh2 {
-    build_from_refs(prim_refs(boxes.len(), |i| boxes[i]), options)
+    build_from_refs(prim_refs(boxes.len(), |i| boxes[i]), options, None)
 }
 
 /// Builds a binary BVH over triangles (vertex indices into `positions`); triangles with an
 /// index out of range or a vertex that is not finite are left out. The same tree as
 /// `build_bvh2` over their boxes, without a frame of boxes in between.
 pub(crate) fn build_bvh2_triangles(positions: &[Vec3], triangles: &[[u32; 3]], options: &BuildOptions) -> Bvh2 {
-    build_from_refs(prim_refs(triangles.len(), |i| triangle_box(positions, triangles, i)), options)
+    let refs = prim_refs(triangles.len(), |i| triangle_box(positions, triangles, i));
+    build_from_refs(refs, options, Some((positions, triangles)))
 }
 
 /// The box of triangle `i`; empty where an index is out of range.
@@ -483,7 +515,9 @@ fn prim_refs(n: usize, bounds: impl Fn(usize) -> Bounds3 + Sync) -> Vec<PrimRef>
     refs
 }
 
-fn build_from_refs(mut refs: Vec<PrimRef>, options: &BuildOptions) -> Bvh2 {
+/// The tree over `refs`; with `triangles` (positions and vertex indices) spatial splits may cut
+/// them, as far as `options` allow.
+fn build_from_refs(mut refs: Vec<PrimRef>, options: &BuildOptions, triangles: Option<(&[Vec3], &[[u32; 3]])>) -> Bvh2 {
     let s = Settings {
         max_leaf: options.max_leaf_size.clamp(1, MAX_LEAF),
         bins: options.bins.clamp(2, MAX_BINS),
@@ -506,6 +540,18 @@ fn build_from_refs(mut refs: Vec<PrimRef>, options: &BuildOptions) -> Bvh2 {
     } else {
         bounds_of(&refs)
     };
+    let extra = options.spatial_splits;
+    let extra = if extra.is_finite() { extra.clamp(0.0, 2.0) } else { 0.0 };
+    let budget = (extra as f64 * n as f64) as usize;
+    if let Some((positions, triangles)) = triangles
+        && budget > 0
+    {
+        let c = spatial::Ctx { s, positions, triangles, min_overlap: spatial::ALPHA * bounds.half_area() };
+        let mut tree =
+            spatial::Tree { nodes: Vec::with_capacity(2 * (n + budget) - 1), prims: Vec::with_capacity(n + budget) };
+        let depth = spatial::build(&c, refs, &mut tree, 0, 0, bounds, cbounds, 1, budget);
+        return Bvh2::from_parts(tree.nodes, tree.prims, depth as usize, s.ct, s.ci);
+    }
     // At most 2n − 1 nodes; only the pages the nodes use are ever touched.
     let mut nodes = Vec::with_capacity(2 * n - 1);
     let depth = build_rec(&s, &mut refs, &mut nodes, 0, 0, bounds, cbounds, 1);
