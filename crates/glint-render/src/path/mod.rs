@@ -573,7 +573,10 @@ fn trace_sums(
     let setup = Instant::now();
     let kept_planes =
         || FILTER_BUFFERS.lock().is_ok_and(|b| b.as_ref().is_some_and(|b| b.depth.len() == image.pixels()));
-    let fresh = !sums::POOL.fits(region.pixels()) || !GUIDES.fits(image.pixels()) || (filtered && !kept_planes());
+    let fresh = !sums::POOL.fits(region.pixels())
+        || !GUIDES.fits(image.pixels())
+        || !sums::FIRST.fits(region.pixels())
+        || (filtered && !kept_planes());
     if fresh {
         if filtered {
             let mut buffers = take_filter_buffers();
@@ -585,6 +588,8 @@ fn trace_sums(
         sums::POOL.give(sums::POOL.take(region.pixels(), PixelSums::default(), what)?);
         let what = || format!("the guide rays of a {} x {} image", image.width, image.height);
         GUIDES.give(GUIDES.take(image.pixels(), GuidePixel::default(), what)?);
+        let what = || format!("the first samples of a {} x {} image", region.width, region.height);
+        sums::FIRST.give(sums::FIRST.take(region.pixels(), FirstSample::default(), what)?);
     }
     let setup = if fresh { setup.elapsed() } else { Duration::ZERO };
     let start = Instant::now();
@@ -671,14 +676,22 @@ fn trace_sums(
         albedo: g.sample.albedo,
         depth: g.sample.guide.map_or(f32::INFINITY, |q| q.depth),
     };
-    let first = first.map(|g| {
-        let samples = match tiled {
-            true => region_pixels(&g).par_iter().map(first_sample).collect(),
-            false => g.par_iter().map(first_sample).collect(),
-        };
-        GUIDES.give(g);
-        samples
-    });
+    let first = match first {
+        Some(g) => {
+            let what = || format!("the first samples of a {} x {} image", region.width, region.height);
+            // Every element is written below.
+            let mut samples = sums::FIRST.take_stale(region.pixels(), FirstSample::default(), what)?;
+            match tiled {
+                true => {
+                    samples.par_iter_mut().zip(region_pixels(&g).par_iter()).for_each(|(s, g)| *s = first_sample(g))
+                }
+                false => samples.par_iter_mut().zip(g.par_iter()).for_each(|(s, g)| *s = first_sample(g)),
+            }
+            GUIDES.give(g);
+            Some(samples)
+        }
+        None => None,
+    };
     let sums = PathSums {
         width: region.width,
         height: region.height,

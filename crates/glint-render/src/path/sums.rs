@@ -267,12 +267,20 @@ impl PathSums {
         cropped
     }
 
-    /// Give the pixels' memory back for the next frame's sums ([`POOL`]).
+    /// Give the pixels' and the first sample's memory back for the next frame's sums
+    /// ([`POOL`], [`FIRST`]).
     pub(crate) fn recycle(self) {
         POOL.give(self.pixels);
+        if let Some(first) = self.first {
+            FIRST.give(first);
+        }
     }
 }
 
 /// The last frame's sums (a 1024 × 768 frame's are 200 MB: their page faults were ~4 % of a
 /// Sponza path frame).
 pub(crate) static POOL: Pool<PixelSums> = Pool::new();
+
+/// The last frame's first-sample AOVs (25 MB at 1024 × 768, mapped afresh every frame when
+/// they were collected into a new vector).
+pub(crate) static FIRST: Pool<FirstSample> = Pool::new();
