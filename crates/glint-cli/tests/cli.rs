@@ -197,6 +197,56 @@ fn bench_rays_times_repeated_builds() {
     assert!(stderr(&o).contains("--builds must be at least 1"), "{}", stderr(&o));
 }
 
+/// `--build fast` builds without spatial splits and `--build spatial` (the default, as the
+/// renderer builds) with them: the same hits for every ray, more node memory; a build that is
+/// neither is refused.
+#[test]
+fn bench_rays_builds_with_and_without_spatial_splits() {
+    let Some(bunny) = shared("data/meshes/stanford_bunny_bun_zipper.ply") else { return };
+    let d = scratch("bench-build-kinds");
+    let run = |build: &str, kind: &str| {
+        let prefix = format!("{build}-{kind}");
+        let args = [
+            "bench",
+            "rays",
+            "--scene",
+            bunny.to_str().unwrap(),
+            "--kind",
+            kind,
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--reps",
+            "1",
+            "--build",
+            build,
+            "--dump",
+            &prefix,
+        ];
+        let o = glint(&args, &d);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        let out = String::from_utf8_lossy(&o.stdout).into_owned();
+        let line = out.lines().find(|l| l.starts_with("scene:")).unwrap_or_default().to_owned();
+        let bytes: f64 = line
+            .split("; ")
+            .find_map(|f| f.strip_suffix(" bytes of BVH nodes per triangle"))
+            .unwrap_or_else(|| panic!("no node bytes in {line:?}"))
+            .parse()
+            .unwrap();
+        (std::fs::read(d.join(format!("{prefix}.hits.f32"))).unwrap(), bytes)
+    };
+    for kind in ["primary", "diffuse"] {
+        let (fast, fast_bytes) = run("fast", kind);
+        let (spatial, spatial_bytes) = run("spatial", kind);
+        assert!(!fast.is_empty());
+        assert_eq!(fast, spatial, "{kind}: the hits differ");
+        assert!(spatial_bytes > fast_bytes, "{kind}: {spatial_bytes} vs {fast_bytes} bytes per triangle");
+    }
+    std::fs::write(d.join("out.png"), b"precious").unwrap();
+    assert_fails_cleanly(&["bench", "rays", "--scene", bunny.to_str().unwrap(), "--build", "best"], "--build", &d);
+}
+
 /// `--scene-time` shows scenes/animated.toml at a time: two times give two pictures, time 0
 /// is the scene as loaded, and a non-finite time is refused.
 #[test]
