@@ -92,30 +92,21 @@ fn a_model_file_renders_directly() {
     assert_eq!((img.width, img.height), (64, 48));
 }
 
+/// `glint bench rays` on `scene` with `kind` rays at 64 × 48, one pass, and `extra`.
+fn bench_rays_64x48(scene: &std::path::Path, kind: &str, extra: &[&str], d: &std::path::Path) -> std::process::Output {
+    let scene = scene.to_str().unwrap();
+    let mut args =
+        vec!["bench", "rays", "--scene", scene, "--kind", kind, "--width", "64", "--height", "48", "--reps", "1"];
+    args.extend_from_slice(extra);
+    glint(&args, d)
+}
+
 #[test]
 fn bench_rays_dumps_what_it_traced() {
     let Some(bunny) = shared("data/meshes/stanford_bunny_bun_zipper.ply") else { return };
     let d = scratch("bench");
     for kind in ["primary", "diffuse", "shadow"] {
-        let o = glint(
-            &[
-                "bench",
-                "rays",
-                "--scene",
-                bunny.to_str().unwrap(),
-                "--kind",
-                kind,
-                "--width",
-                "64",
-                "--height",
-                "48",
-                "--reps",
-                "1",
-                "--dump",
-                "dump",
-            ],
-            &d,
-        );
+        let o = bench_rays_64x48(&bunny, kind, &["--dump", "dump"], &d);
         assert!(o.status.success(), "{}", stderr(&o));
         let out = String::from_utf8_lossy(&o.stdout);
         assert!(out.lines().last().unwrap().starts_with("mrays_per_s_median="), "{out}");
@@ -206,26 +197,8 @@ fn bench_rays_builds_with_and_without_spatial_splits() {
     let d = scratch("bench-build-kinds");
     let run = |build: &str, kind: &str| {
         let prefix = format!("{build}-{kind}");
-        let args = [
-            "bench",
-            "rays",
-            "--scene",
-            bunny.to_str().unwrap(),
-            "--kind",
-            kind,
-            "--width",
-            "64",
-            "--height",
-            "48",
-            "--reps",
-            "1",
-            "--build",
-            build,
-            "--dump",
-            &prefix,
-        ];
-        let o = glint(&args, &d);
-        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        let o = bench_rays_64x48(&bunny, kind, &["--build", build, "--dump", &prefix], &d);
+        assert!(o.status.success(), "{build} {kind}: {}", stderr(&o));
         let out = String::from_utf8_lossy(&o.stdout).into_owned();
         let line = out.lines().find(|l| l.starts_with("scene:")).unwrap_or_default().to_owned();
         let bytes: f64 = line
