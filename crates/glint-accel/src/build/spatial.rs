@@ -342,11 +342,9 @@ pub(super) fn build(
         || depth >= SAH_DEPTH_LIMIT
         || cbounds.min == cbounds.max
         || n <= BLOCK as usize;
+    let at = Place { base, prim_base, bounds, cbounds, depth };
     if in_place {
-        let first = prim_base + out.prims.len() as u32;
-        let d = build_rec(&c.s, &mut refs, &mut out.nodes, base, first, bounds, cbounds, depth);
-        out.prims.extend(refs.iter().map(PrimRef::id));
-        return d;
+        return object_subtree(c, refs, out, &at);
     }
     let map = BinMap::new(&cbounds, c.s.bins);
     let object = best_split(&bin_refs(&refs, &map), c.s.bins);
@@ -360,10 +358,7 @@ pub(super) fn build(
     let s = &c.s;
     if !cost.is_finite() {
         // No split the bins can name (every reference in one bin): the object builder's way.
-        let first = prim_base + out.prims.len() as u32;
-        let d = build_rec(s, &mut refs, &mut out.nodes, base, first, bounds, cbounds, depth);
-        out.prims.extend(refs.iter().map(PrimRef::id));
-        return d;
+        return object_subtree(c, refs, out, &at);
     }
     let split_cost = s.ct + s.ci * cost / a.max(f32::MIN_POSITIVE);
     if n <= s.max_leaf && (s.ci * blocks(n as u32) <= split_cost || a == 0.0) {
@@ -383,10 +378,7 @@ pub(super) fn build(
             // `cost` is finite, so the object split exists (a spatial split is kept only when
             // cheaper than it, and without it the cost is infinite).
             let Some(o) = object else {
-                let first = prim_base + out.prims.len() as u32;
-                let d = build_rec(s, &mut refs, &mut out.nodes, base, first, bounds, cbounds, depth);
-                out.prims.extend(refs.iter().map(PrimRef::id));
-                return d;
+                return object_subtree(c, refs, out, &at);
             };
             let (nl, lcb, rcb) = partition(&mut refs, &map, &o);
             let r = refs.split_off(nl);
@@ -422,6 +414,25 @@ pub(super) fn build(
         (dl, dr)
     };
     1 + dl.max(dr)
+}
+
+/// Where a subtree goes: its offsets in the output (as [`build`] takes them), its box, its
+/// centroids' box and its depth.
+struct Place {
+    base: u32,
+    prim_base: u32,
+    bounds: Bounds3,
+    cbounds: Bounds3,
+    depth: u32,
+}
+
+/// The subtree of `refs` by the object builder, in place (its leaves index the references in
+/// the order it leaves them, appended to `out.prims`).
+fn object_subtree(c: &Ctx, mut refs: Vec<PrimRef>, out: &mut Tree, at: &Place) -> u32 {
+    let first = at.prim_base + out.prims.len() as u32;
+    let d = build_rec(&c.s, &mut refs, &mut out.nodes, at.base, first, at.bounds, at.cbounds, at.depth);
+    out.prims.extend(refs.iter().map(PrimRef::id));
+    d
 }
 
 /// Half the area of the boxes' intersection; 0 where they do not meet.
